@@ -1,0 +1,39 @@
+# make demo   — set up (first time) and show the dam mission compiled and verified
+# make test   — set up (first time) and run the test suite
+# make check  — lint (ruff) and type-check (mypy)
+# make bench  — benchmarks (figures, not pass/fail)
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed-stamp
+
+.PHONY: demo test check bench clean install
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test,dev]'
+	touch $(STAMP)
+
+demo: $(STAMP)
+	@mkdir -p out
+	$(BIN)/mclc missions/dam_inspection.mcl --dot out/dam_inspection.dot \
+	    --dot-tasks out/dam_inspection.tasks.dot --pnml out/dam_inspection.pnml
+	@echo
+	@echo "Every mission in missions/:"
+	$(BIN)/mclc missions/*.mcl --format text | grep -E '^(missions|  (verified|NOT))' || true
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+check: $(STAMP)
+	$(BIN)/ruff check mcl petri tests bench
+	$(BIN)/mypy mcl petri
+
+bench: $(STAMP)
+	$(BIN)/python bench/bench_verifier.py
+
+clean:
+	rm -rf $(VENV) out .pytest_cache .hypothesis

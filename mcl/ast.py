@@ -1,0 +1,168 @@
+"""The abstract syntax tree of an MCL mission: frozen dataclasses, each with its source span.
+
+Equality ignores spans (``compare=False``), so a mission parsed from its pretty-printed form
+equals the original.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Union
+
+from .errors import Span
+
+_NOWHERE = Span("<none>", 0, 0)
+
+
+# -- values ---------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Number:
+    value: float
+    unit: str | None = None
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class Ref:
+    """An identifier: a mission parameter, or one of the words ``enable`` / ``disable``."""
+
+    name: str
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class ListValue:
+    items: tuple[Value, ...]
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class Point:
+    items: tuple[Value, ...]
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+Value = Union[Number, Ref, ListValue, Point]
+WORDS = ("enable", "disable")
+
+
+# -- blocks ---------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Arg:
+    value: Value
+    name: str | None = None  # for named arguments such as timeout = 2 min
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class Call:
+    """A task call: ``Name(args)``."""
+
+    name: str
+    args: tuple[Arg, ...]
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class Sequence:
+    """``A ; B ; ...``: each item starts when the one before it ends."""
+
+    items: tuple[Block, ...]
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class TryCatchDo:
+    try_: Block
+    catch: Block
+    do: Block
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class ParallelAnd:
+    branches: tuple[Block, ...]
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class ParallelOr:
+    branches: tuple[Block, ...]
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class IfThenElse:
+    condition: Block
+    then: Block
+    else_: Block | None
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class WhileDo:
+    condition: Block
+    body: Block
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+Block = Union[Call, Sequence, TryCatchDo, ParallelAnd, ParallelOr, IfThenElse, WhileDo]
+
+
+@dataclass(frozen=True)
+class Param:
+    """``PARAM name = value;`` (the value may be left to the command line)."""
+
+    name: str
+    value: Value | None
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class Uses:
+    """``USES "file.tasks";``: the task library the mission is written against."""
+
+    library: str
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class Mission:
+    name: str | None
+    body: Block
+    params: tuple[Param, ...] = ()
+    span: Span = field(default=_NOWHERE, compare=False)
+    uses: tuple[Uses, ...] = ()
+
+
+def children(block: Block) -> tuple[Block, ...]:
+    """The blocks directly inside a block, in source order."""
+    match block:
+        case Call():
+            return ()
+        case Sequence(items=items):
+            return items
+        case TryCatchDo(try_=t, catch=c, do=d):
+            return (t, c, d)
+        case ParallelAnd(branches=b) | ParallelOr(branches=b):
+            return b
+        case IfThenElse(condition=c, then=t, else_=e):
+            return (c, t) if e is None else (c, t, e)
+        case WhileDo(condition=c, body=b):
+            return (c, b)
+    raise TypeError(f"not a block: {block!r}")
+
+
+def walk(block: Block) -> list[Block]:
+    """Every block in the tree, parents before children (iterative: deep trees are fine)."""
+    out: list[Block] = []
+    stack = [block]
+    while stack:
+        b = stack.pop()
+        out.append(b)
+        stack.extend(reversed(children(b)))
+    return out
+
+
+def calls(block: Block) -> list[Call]:
+    return [b for b in walk(block) if isinstance(b, Call)]

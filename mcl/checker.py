@@ -1,0 +1,218 @@
+"""Check a mission against the task library: every call, every argument, every parameter.
+
+The result, :class:`Checked`, is what the compiler needs: for each call the task form it
+resolves to and its arguments by formal name, and the value of every mission parameter that
+has one. All problems are collected and reported together.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from . import ast
+from .errors import Diagnostic, MclError, Source, Span
+from .parser import KEYWORDS, suggest
+from .tasklib import Library, TaskForm
+from .values import check, describe
+
+
+@dataclass(frozen=True)
+class Resolved:
+    form: TaskForm
+    args: dict[str, ast.Value]  # formal name -> value given (or its default)
+    timeout: ast.Value | None = None  # a per-call timeout (named argument timeout = ...)
+
+
+@dataclass
+class Checked:
+    mission: ast.Mission
+    library: Library
+    source: Source
+    calls: dict[int, Resolved] = field(default_factory=dict)  # id(Call) -> resolution
+    params: dict[str, ast.Value] = field(default_factory=dict)  # parameter -> value
+    param_kinds: dict[str, str] = field(default_factory=dict)
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+
+    def resolved(self, call: ast.Call) -> Resolved:
+        return self.calls[id(call)]
+
+    @property
+    def unset(self) -> list[str]:
+        return sorted(p for p in self.param_kinds if p not in self.params)
+
+
+def check_mission(mission: ast.Mission, library: Library, source: Source,
+                  overrides: dict[str, tuple[ast.Value, Source]] | None = None,
+                  require_values: bool = False) -> Checked:
+    """Raise MclError listing every error; warnings are kept in ``Checked.diagnostics``."""
+    checked = Checked(mission, library, source)
+    c = _Checker(checked, source)
+    for call in ast.calls(mission.body):
+        c.call(call)
+    c.parameters(overrides or {}, require_values)
+    if any(d.severity == "error" for d in c.diagnostics):
+        raise MclError(sorted(c.diagnostics, key=_order))
+    checked.diagnostics = sorted(c.diagnostics, key=_order)
+    return checked
+
+
+def _order(d: Diagnostic) -> tuple[int, int, int]:
+    span = d.span or Span("", 0, 0)
+    return (0 if d.severity == "error" else 1, span.line, span.col)
+
+
+class _Checker:
+    def __init__(self, checked: Checked, source: Source):
+        self.checked = checked
+        self.source = source
+        self.diagnostics: list[Diagnostic] = []
+
+    def error(self, message: str, span: Span, hint: str = "", code: str = "",
+              source: Source | None = None) -> None:
+        self.diagnostics.append((source or self.source).diagnostic("error", message, span,
+                                                                    hint, code))
+
+    def warn(self, message: str, span: Span, hint: str = "", code: str = "") -> None:
+        self.diagnostics.append(self.source.diagnostic("warning", message, span, hint, code))
+
+    # -- calls ------------------------------------------------------------------------------
+    def call(self, call: ast.Call) -> None:
+        forms = self.checked.library.tasks.get(call.name)
+        if forms is None:
+            if call.name.upper() in KEYWORDS:
+                self.error(f"keywords are upper case: write {call.name.upper()}", call.span,
+                           code="lower-case-keyword")
+                return
+            hint = suggest(call.name, list(self.checked.library.tasks))
+            self.error(f"unknown task '{call.name}'", _name_span(call),
+                       hint or "declare it in a task library and pass it with --tasks FILE",
+                       code="unknown-task")
+            return
+        positional = [a for a in call.args if a.name is None]
+        named = {a.name: a for a in call.args if a.name is not None}
+        for i, a in enumerate(call.args):
+            if a.name is None and any(b.name is not None for b in call.args[:i]):
+                self.error("a positional argument after a named one", a.span,
+                           "put named arguments (name = value) last", code="arg-order")
+                return
+        candidates = [f for f in forms if _fits(f, positional, named)]
+        if not candidates:
+            signatures = " | ".join(f.signature for f in forms)
+            self.error(f"no form of {call.name} takes these arguments", _name_span(call),
+                       f"{call.name} is called as: {signatures}", code="bad-arguments")
+            return
+        form = candidates[0]
+        args: dict[str, ast.Value] = {}
+        for formal, arg in zip(form.formals, positional):
+            if formal.kind is not None:
+                args[formal.name] = arg.value
+        timeout = None
+        for name, arg in named.items():
+            if name == "timeout" and name not in {f.name for f in form.formals}:
+                if form.immediate:
+                    self.error(f"{call.name} ends at once: a timeout means nothing here",
+                               arg.span, "remove 'timeout = ...'", code="bad-timeout")
+                timeout = arg.value
+                for p in check(arg.value, "duration", self.checked.param_kinds):
+                    self.error(p.message, p.node.span, code="bad-argument")
+            else:
+                args[name] = arg.value
+        for formal in form.formals:
+            if formal.kind is None:
+                continue
+            if formal.name not in args:
+                assert formal.default is not None
+                args[formal.name] = formal.default
+                continue
+            for p in check(args[formal.name], formal.kind, self.checked.param_kinds):
+                self.error(f"argument '{formal.name}' of {call.name}: {p.message}",
+                           p.node.span, code="bad-argument")
+        self.checked.calls[id(call)] = Resolved(form, args, timeout)
+
+    # -- parameters -------------------------------------------------------------------------
+    def parameters(self, overrides: dict[str, tuple[ast.Value, Source]],
+                   require_values: bool) -> None:
+        kinds = self.checked.param_kinds
+        params = self.checked.params
+        declared: dict[str, ast.Param] = {}
+        for p in self.checked.mission.params:
+            if p.name in declared:
+                self.error(f"parameter '{p.name}' is declared twice (first at "
+                           f"{declared[p.name].span})", p.span, code="duplicate-param")
+                continue
+            declared[p.name] = p
+            if p.name in ast.WORDS:
+                self.error(f"'{p.name}' is a reserved word", p.span, code="reserved-word")
+            if p.name not in kinds:
+                self.warn(f"parameter '{p.name}' is declared but never used", p.span,
+                          code="unused-param")
+            if p.value is not None:
+                params[p.name] = p.value
+        for name, (value, origin) in overrides.items():
+            if name not in kinds:
+                hint = suggest(name, sorted(kinds)) or (
+                    f"the mission's parameters: {', '.join(sorted(kinds)) or 'none'}")
+                self.error(f"unknown parameter '{name}'", origin.span(1, 1), hint,
+                           code="unknown-param", source=origin)
+                continue
+            params[name] = value
+        # Each value must suit the way the parameter is used.
+        for name, value in list(params.items()):
+            if name not in kinds:
+                continue
+            for problem in check(value, kinds[name], {}):
+                where = declared[name].span if name in declared and value is declared[
+                    name].value else problem.node.span
+                self.error(f"parameter '{name}' is used as a {kinds[name]} but its value "
+                           f"is {describe(value)}: {problem.message}", where,
+                           code="bad-param-value")
+        uses = _first_uses(self.checked.mission.body)
+        for name in sorted(kinds):
+            if name not in params:
+                span = uses.get(name, self.checked.mission.span)
+                text = f"parameter '{name}' has no value"
+                hint = f"declare it (PARAM {name} = ...;) or give --param {name}=VALUE"
+                if require_values:
+                    self.error(text, span, hint, code="unset-param")
+                else:
+                    self.warn(text, span, hint, code="unset-param")
+
+
+def _fits(form: TaskForm, positional: list[ast.Arg], named: dict[str | None, ast.Arg]) -> bool:
+    if len(positional) > len(form.formals):
+        return False
+    for formal, arg in zip(form.formals, positional):
+        is_word = isinstance(arg.value, ast.Ref) and arg.value.name in ast.WORDS
+        if formal.kind is None:
+            if not (is_word and isinstance(arg.value, ast.Ref)
+                    and arg.value.name == formal.name):
+                return False
+        elif is_word:
+            return False
+    rest = form.formals[len(positional):]
+    names = {f.name for f in form.formals if f.kind is not None}
+    if any(n not in names and n != "timeout" for n in named):
+        return False
+    return all(f.kind is not None and (f.default is not None or f.name in named) for f in rest)
+
+
+def _name_span(call: ast.Call) -> Span:
+    s = call.span
+    return Span(s.file, s.line, s.col, s.line, s.col + len(call.name))
+
+
+def _first_uses(body: ast.Block) -> dict[str, Span]:
+    uses: dict[str, Span] = {}
+
+    def visit(v: ast.Value) -> None:
+        match v:
+            case ast.Ref(name=n) if n not in ast.WORDS:
+                uses.setdefault(n, v.span)
+            case ast.ListValue(items=items) | ast.Point(items=items):
+                for i in items:
+                    visit(i)
+
+    for call in ast.calls(body):
+        for a in call.args:
+            visit(a.value)
+    return uses

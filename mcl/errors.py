@@ -1,0 +1,129 @@
+"""One error hierarchy for everything a user gives us.
+
+Every user-facing problem is a :class:`Diagnostic`: ``file:line:col: error: message``, the
+source line, a caret under the column, and a hint saying what to do. An :class:`MclError`
+carries one or more diagnostics; the command-line tools print them and exit 2 instead of
+showing a traceback (which only ``--debug`` shows).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class Span:
+    """A place in a source file: 1-based line and column, inclusive start, exclusive end."""
+
+    file: str
+    line: int
+    col: int
+    end_line: int = 0
+    end_col: int = 0
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}:{self.col}"
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    severity: str  # "error" | "warning" | "note"
+    message: str
+    span: Span | None = None
+    hint: str = ""
+    source_line: str = ""
+    code: str = ""  # a short stable name for the kind of problem, e.g. "trailing-semicolon"
+
+    def format(self) -> str:
+        where = f"{self.span}: " if self.span else ""
+        lines = [f"{where}{self.severity}: {self.message}"]
+        if self.span and self.source_line:
+            text = self.source_line.rstrip("\n").expandtabs(4)
+            prefix = self.source_line[: max(self.span.col - 1, 0)].expandtabs(4)
+            width = 1
+            if self.span.end_line == self.span.line and self.span.end_col > self.span.col:
+                width = self.span.end_col - self.span.col
+            lines.append(f"    {text}")
+            lines.append("    " + " " * len(prefix) + "^" + "~" * (min(width, 60) - 1))
+        if self.hint:
+            lines.append(f"  hint: {self.hint}")
+        return "\n".join(lines)
+
+
+@dataclass
+class Source:
+    """The text of one input file, kept to quote lines in messages."""
+
+    name: str
+    text: str
+    lines: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.lines = self.text.splitlines()
+
+    def line(self, number: int) -> str:
+        return self.lines[number - 1] if 0 < number <= len(self.lines) else ""
+
+    def span(self, line: int, col: int, end_line: int = 0, end_col: int = 0) -> Span:
+        return Span(self.name, line, col, end_line, end_col)
+
+    def diagnostic(self, severity: str, message: str, span: Span | None, hint: str = "",
+                   code: str = "") -> Diagnostic:
+        source_line = self.line(span.line) if span and span.file == self.name else ""
+        return Diagnostic(severity, message, span, hint, source_line, code)
+
+
+class MclError(Exception):
+    """Raised for invalid user input; holds every diagnostic found (errors and warnings)."""
+
+    def __init__(self, diagnostics: list[Diagnostic] | Diagnostic):
+        self.diagnostics = [diagnostics] if isinstance(diagnostics, Diagnostic) else diagnostics
+        super().__init__(self.format())
+
+    @property
+    def errors(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.severity == "error"]
+
+    def format(self) -> str:
+        return "\n".join(d.format() for d in self.diagnostics)
+
+
+def error(source: Source, message: str, span: Span | None, hint: str = "",
+          code: str = "") -> MclError:
+    """The one helper through which every single-error check raises."""
+    return MclError(source.diagnostic("error", message, span, hint, code))
+
+
+def file_error(name: str, message: str, hint: str = "", code: str = "") -> MclError:
+    """A problem with a file as a whole (missing, unreadable, binary): no line to show."""
+    return MclError(Diagnostic("error", message, Span(name, 1, 1), hint, "", code))
+
+
+def read_source(path: str) -> Source:
+    """Read a text file for parsing, turning every way it can go wrong into an MclError."""
+    import os
+
+    if not os.path.exists(path):
+        raise file_error(path, "no such file", "check the path; missions usually end in .mcl",
+                         code="missing-file")
+    if os.path.isdir(path):
+        raise file_error(path, "is a directory, not a file", "give the path of a file",
+                         code="directory")
+    try:
+        with open(path, "rb") as f:
+            data = f.read(8 * 1024 * 1024 + 1)
+    except OSError as exc:
+        raise file_error(path, f"cannot be read: {exc.strerror}",
+                         "check the file's permissions", code="unreadable") from None
+    if len(data) > 8 * 1024 * 1024:
+        raise file_error(path, "is larger than 8 MiB: not a mission file",
+                         "give the path of a mission (.mcl) file", code="too-large")
+    if b"\x00" in data:
+        raise file_error(path, "is a binary file, not text",
+                         "give the path of a mission written in MCL", code="binary-file")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise file_error(path, f"is not UTF-8 text (byte {exc.start} is 0x{data[exc.start]:02x})",
+                         "save the file as UTF-8", code="not-utf8") from None
+    return Source(path, text.removeprefix("\ufeff"))

@@ -1,0 +1,350 @@
+"""Parse MCL text into the AST, turning raw parse errors into messages a mission author can act on.
+
+The grammar is the data file ``mcl/grammar/mcl.lark``. Known mistakes are recognised by
+:data:`KNOWN_MISTAKES` (lark's ``match_examples``: each entry lists small programs that go
+wrong in the same way); the same table is exercised by the tests.
+"""
+
+from __future__ import annotations
+
+import difflib
+from functools import lru_cache
+
+from lark import Lark, Token, Tree, UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
+from lark import UnexpectedToken
+
+from . import ast
+from .errors import MclError, Source, Span, error, read_source
+
+KEYWORDS = ("MISSION", "PARAM", "USES", "TRY", "CATCH", "DO", "PARALLEL", "AND", "OR", "IF", "THEN",
+            "ELSE", "WHILE")
+MAX_DEPTH = 100  # blocks nested deeper than this are refused ("absurd nesting")
+
+# code -> (message, hint, examples that fail in the same parser state)
+KNOWN_MISTAKES: dict[str, tuple[str, str, list[str]]] = {
+    "trailing-semicolon": (
+        "';' before '}': in MCL ';' separates items, so the last item of a block has none",
+        "delete this ';'",
+        ["MISSION { A(); }", "MISSION { A(); B(); }", "MISSION { TRY { A(); } CATCH { B() } DO { C() } }"],
+    ),
+    "missing-brace-before-catch": (
+        "'}' missing before CATCH: the TRY block is not closed",
+        "write '} CATCH {' — the block after TRY must be closed before CATCH",
+        ["MISSION { TRY { A() CATCH { B() } DO { C() } }",
+         "MISSION { TRY { A(); B() CATCH { B() } DO { C() } }"],
+    ),
+    "missing-brace-before-do": (
+        "'}' missing before DO: the block before DO is not closed",
+        "close the CATCH (or WHILE) block with '}' before DO",
+        ["MISSION { TRY { A() } CATCH { B() DO { C() } }",
+         "MISSION { WHILE { A() DO { C() } }"],
+    ),
+    "missing-brace-before-then-else": (
+        "'}' missing: the block before THEN / ELSE is not closed",
+        "close the block with '}' before the keyword",
+        ["MISSION { IF { A() THEN { B() } }", "MISSION { IF { A() } THEN { B() ELSE { C() } }"],
+    ),
+    "mixed-and-or": (
+        "AND and OR mixed in one PARALLEL",
+        "use one kind per PARALLEL; nest a PARALLEL inside a branch to combine them",
+        ["MISSION { PARALLEL { A() } AND { B() } OR { C() } }",
+         "MISSION { PARALLEL { A() } OR { B() } AND { C() } }"],
+    ),
+    "missing-semicolon": (
+        "';' missing between two items",
+        "separate the items of a block with ';'",
+        ["MISSION { A() B() }", "MISSION { A() TRY { B() } CATCH { C() } DO { D() } }",
+         "MISSION { TRY { B() } CATCH { C() } DO { D() } A() }"],
+    ),
+    "empty-block": (
+        "empty block: a block holds at least one item",
+        "put a task in the block, e.g. Wait(0)",
+        ["MISSION { }", "MISSION { TRY { } CATCH { A() } DO { B() } }"],
+    ),
+    "missing-mission": (
+        "the file has no MISSION",
+        "write the mission as MISSION { ... } after any PARAM lines",
+        ["PARAM a = 1;", "A()"],
+    ),
+    "unclosed-block": (
+        "the file ends inside a block: a '}' is missing",
+        "close every '{' with a '}'",
+        ["MISSION { A()", "MISSION { TRY { A() } CATCH { B() } DO { C() }"],
+    ),
+    "missing-block-after": (
+        "a block in braces is expected here",
+        "control structures take blocks: TRY { ... } CATCH { ... } DO { ... }",
+        ["MISSION { TRY A() }", "MISSION { PARALLEL { A() } AND B() }", "MISSION { IF A() }"],
+    ),
+    "call-needs-parentheses": (
+        "a task call needs parentheses",
+        "write Name() even when the task takes no arguments",
+        ["MISSION { A }", "MISSION { A; B() }"],
+    ),
+    "text-after-mission": (
+        "text after the end of the mission",
+        "a file holds one MISSION; remove what follows its closing '}'",
+        ["MISSION { A() } B()", "MISSION { A() } }"],
+    ),
+}
+
+
+@lru_cache(maxsize=1)
+def _lark() -> Lark:
+    return Lark.open_from_package("mcl", "mcl.lark", ("grammar",), parser="lalr",
+                                  propagate_positions=True, maybe_placeholders=True,
+                                  start=["start", "value"])
+
+
+def parse_file(path: str) -> ast.Mission:
+    """Read and parse a mission file; every problem becomes an :class:`MclError`."""
+    return parse(read_source(path))
+
+
+def parse(source: Source) -> ast.Mission:
+    if not source.text.strip():
+        raise error(source, "the file is empty", source.span(1, 1),
+                    "a mission file holds MISSION { ... }", code="empty-file")
+    try:
+        tree = _lark().parse(source.text, start="start")
+    except UnexpectedInput as exc:
+        raise _friendly(source, exc) from None
+    _check_depth(source, tree)
+    return _Builder(source).mission(tree)
+
+
+def parse_value(text: str, origin: str = "<command line>") -> ast.Value:
+    """Parse one parameter value as written on the command line or in a parameter file."""
+    source = Source(origin, text)
+    try:
+        tree = _lark().parse(text, start="value")
+    except UnexpectedInput as exc:
+        col = getattr(exc, "column", 1)
+        raise error(source, f"not a value: {text!r}", source.span(1, max(col, 1)),
+                    "values are numbers with an optional unit (1.5 m), lists [a, b], "
+                    "points (x, y, z, yaw) or names", code="bad-value") from None
+    return _Builder(source).value(tree)
+
+
+# -- friendly syntax errors ------------------------------------------------------------------
+def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
+    line, col = max(exc.line, 1), max(exc.column, 1)
+    if isinstance(exc, UnexpectedCharacters):
+        char = source.text[exc.pos_in_stream] if exc.pos_in_stream < len(source.text) else ""
+        if source.text.startswith("/*", exc.pos_in_stream):
+            return error(source, "comment '/*' is never closed", source.span(line, col),
+                         "close it with '*/'", code="unclosed-comment")
+        return error(source, f"unexpected character {char!r}", source.span(line, col),
+                     "MCL uses letters, digits, _ ( ) [ ] { } , ; = . and comments",
+                     code="bad-character")
+    token = exc.token if isinstance(exc, (UnexpectedToken, UnexpectedEOF)) else None
+    previous = _token_before(source, line, col)
+    # Lower-case keywords: "try {" reads as a task named try followed by '{'.
+    if isinstance(token, Token) and previous is not None and previous.type == "NAME":
+        if previous.upper() in KEYWORDS and previous != previous.upper():
+            return error(source, f"keywords are upper case: write {previous.upper()}, "
+                         f"not {previous}", _tok_span(source, previous),
+                         f"replace '{previous}' with '{previous.upper()}'",
+                         code="lower-case-keyword")
+    code = None
+    if exc.state is not None:
+        try:
+            code = exc.match_examples(lambda text: _lark().parse(text, start="start"),
+                                      {k: v[2] for k, v in KNOWN_MISTAKES.items()},
+                                      use_accepts=True)
+        except Exception:  # match_examples may itself fail on odd states: fall back
+            code = None
+    if code is not None:
+        message, hint, _ = KNOWN_MISTAKES[code]
+        span = source.span(line, col)
+        if code in ("trailing-semicolon", "call-needs-parentheses") and previous is not None:
+            span = _tok_span(source, previous)  # point at the ';' itself
+        if code == "missing-semicolon" and previous is not None:
+            span = source.span(previous.end_line or line, (previous.end_column or col))
+        if code in ("unclosed-block", "missing-mission"):
+            span = _end_span(source)
+        if code == "text-after-mission" and isinstance(token, Token):
+            span = _tok_span(source, token)
+        return error(source, message, span, hint, code=code)
+    if isinstance(exc, UnexpectedEOF) or (isinstance(token, Token) and token.type == "$END"):
+        return error(source, "unexpected end of file", _end_span(source),
+                     "a '}' or an item may be missing", code="unexpected-eof")
+    assert isinstance(token, Token)
+    if token.type == "NAME" and previous is not None and previous.type == "SIGNED_NUMBER":
+        return error(source, f"unknown unit '{token}'", _tok_span(source, token),
+                     "units: m, cm, mm, km (length); deg, rad (angle); s, ms, min, h (time)",
+                     code="unknown-unit")
+    expected = sorted(_pretty_terminal(t) for t in getattr(exc, "expected", ()) or ())
+    return error(source, f"unexpected {_pretty_token(token)}", _tok_span(source, token),
+                 f"expected {_one_of(expected)}" if expected else "", code="syntax")
+
+
+def _token_before(source: Source, line: int, col: int) -> Token | None:
+    """The last token that ends before (line, col), or None."""
+    previous = None
+    try:
+        for tok in _lark().lex(source.text):
+            if (tok.line, tok.column) >= (line, col):
+                break
+            previous = tok
+    except UnexpectedInput:
+        pass
+    return previous
+
+
+def _tok_span(source: Source, tok: Token) -> Span:
+    return source.span(tok.line or 1, tok.column or 1, tok.end_line or 0, tok.end_column or 0)
+
+
+def _end_span(source: Source) -> Span:
+    lines = source.text.rstrip().splitlines() or [""]
+    return source.span(len(lines), len(lines[-1]) + 1)
+
+
+_TERMINAL_NAMES = {"LBRACE": "'{'", "RBRACE": "'}'", "LPAR": "'('", "RPAR": "')'",
+                   "LSQB": "'['", "RSQB": "']'", "SEMICOLON": "';'", "COMMA": "','",
+                   "EQUAL": "'='", "STRING": "a \"string\"", "NAME": "a name", "SIGNED_NUMBER": "a number",
+                   "UNIT": "a unit", "$END": "the end of the file"}
+
+
+def _pretty_terminal(name: str) -> str:
+    if name in _TERMINAL_NAMES:
+        return _TERMINAL_NAMES[name]
+    return name if name in KEYWORDS else name.lower()
+
+
+def _pretty_token(tok: Token) -> str:
+    if tok.type == "NAME":
+        return f"name '{tok}'"
+    if tok.type == "SIGNED_NUMBER":
+        return f"number {tok}"
+    return f"'{tok}'"
+
+
+def _one_of(items: list[str]) -> str:
+    return items[0] if len(items) == 1 else "one of " + ", ".join(items)
+
+
+def _check_depth(source: Source, tree: Tree[Token]) -> None:
+    """Refuse absurd nesting before anything recursive walks the tree."""
+    stack: list[tuple[Tree[Token], int]] = [(tree, 0)]
+    steps = 0
+    while stack:
+        node, depth = stack.pop()
+        steps += 1
+        if node.data == "block":
+            depth += 1
+            if depth > MAX_DEPTH:
+                meta = node.meta
+                raise error(source, f"blocks nested more than {MAX_DEPTH} deep",
+                            source.span(meta.line, meta.column),
+                            "flatten the mission: deep nesting is almost always a mistake",
+                            code="too-deep")
+        stack.extend((c, depth) for c in node.children if isinstance(c, Tree))
+
+
+# -- parse tree -> AST -----------------------------------------------------------------------
+class _Builder:
+    def __init__(self, source: Source):
+        self.source = source
+
+    def span(self, node: Tree[Token] | Token) -> Span:
+        if isinstance(node, Token):
+            return _tok_span(self.source, node)
+        m = node.meta
+        return self.source.span(getattr(m, "line", 1), getattr(m, "column", 1),
+                                getattr(m, "end_line", 0), getattr(m, "end_column", 0))
+
+    def mission(self, tree: Tree[Token]) -> ast.Mission:
+        *headers, mission_tree = tree.children
+        params = tuple(self.param(p) for p in headers
+                       if isinstance(p, Tree) and p.data == "param")
+        uses = tuple(self.uses(u) for u in headers if isinstance(u, Tree) and u.data == "uses")
+        assert isinstance(mission_tree, Tree)
+        name_tok, block_tree = mission_tree.children
+        assert isinstance(block_tree, Tree)
+        name = str(name_tok) if name_tok is not None else None
+        return ast.Mission(name, self.block(block_tree), params, self.span(mission_tree), uses)
+
+    def uses(self, tree: Tree[Token]) -> ast.Uses:
+        tok = tree.children[0]
+        assert isinstance(tok, Token)
+        return ast.Uses(str(tok)[1:-1], self.span(tok))
+
+    def param(self, tree: Tree[Token]) -> ast.Param:
+        name, value = tree.children
+        assert isinstance(name, Token)
+        val = self.value(value) if value is not None else None
+        return ast.Param(str(name), val, self.span(name))
+
+    def block(self, tree: Tree[Token]) -> ast.Block:
+        """A braced block; a single item stands for itself, several make a Sequence."""
+        items = tuple(self.item(c) for c in tree.children if isinstance(c, Tree))
+        if len(items) == 1:
+            return items[0]
+        return ast.Sequence(items, self.span(tree))
+
+    def item(self, tree: Tree[Token]) -> ast.Block:
+        kids = [c for c in tree.children if isinstance(c, Tree)]
+        span = self.span(tree)
+        match tree.data:
+            case "call":
+                name = tree.children[0]
+                assert isinstance(name, Token)
+                args = tuple(self.arg(a) for a in tree.children[1:] if a is not None)
+                return ast.Call(str(name), args, span)
+            case "try_catch_do":
+                t, c, d = (self.block(k) for k in kids)
+                return ast.TryCatchDo(t, c, d, span)
+            case "parallel_and":
+                return ast.ParallelAnd(tuple(self.block(k) for k in kids), span)
+            case "parallel_or":
+                return ast.ParallelOr(tuple(self.block(k) for k in kids), span)
+            case "if_then_else":
+                cond, then, other = tree.children
+                assert isinstance(cond, Tree) and isinstance(then, Tree)
+                return ast.IfThenElse(self.block(cond), self.block(then),
+                                      self.block(other) if isinstance(other, Tree) else None,
+                                      span)
+            case "while_do":
+                c, b = (self.block(k) for k in kids)
+                return ast.WhileDo(c, b, span)
+        raise AssertionError(f"unknown item {tree.data}")
+
+    def arg(self, node: Tree[Token] | Token) -> ast.Arg:
+        if isinstance(node, Tree) and node.data == "named_arg":
+            name, value = node.children
+            assert isinstance(name, Token)
+            return ast.Arg(self.value(value), str(name), self.span(node))
+        value = self.value(node)
+        return ast.Arg(value, None, value.span)
+
+    def value(self, node: Tree[Token] | Token | None) -> ast.Value:
+        if isinstance(node, Token):  # a bare NAME can arrive untransformed
+            return ast.Ref(str(node), self.span(node))
+        assert isinstance(node, Tree)
+        span = self.span(node)
+        match node.data:
+            case "number":
+                num, unit = node.children
+                return ast.Number(float(str(num)), str(unit) if unit else None, span)
+            case "ref":
+                return ast.Ref(str(node.children[0]), span)
+            case "list":
+                items = tuple(self.value(c) for c in node.children if c is not None)
+                return ast.ListValue(items, span)
+            case "point":
+                return ast.Point(tuple(self.value(c) for c in node.children), span)
+            case "value":
+                return self.value(node.children[0])
+        raise AssertionError(f"unknown value {node.data}")
+
+
+def suggest(name: str, candidates: list[str]) -> str:
+    """' (did you mean X?)' for a close match, else ''."""
+    close = difflib.get_close_matches(name, candidates, n=1, cutoff=0.6)
+    if not close:
+        lowered = {c.lower(): c for c in candidates}
+        if name.lower() in lowered:
+            close = [lowered[name.lower()]]
+    return f"did you mean {close[0]}?" if close else ""

@@ -1,0 +1,353 @@
+"""The task library: behaviours and tasks declared in text (``*.tasks`` files), not in Python.
+
+The syntax is ``mcl/grammar/tasks.lark``; the shipped libraries are ``mcl/tasks/core.tasks``
+(timers, always loaded) and ``mcl/tasks/ictineu.tasks`` (the paper's nine tasks, the default
+vehicle library). A user adds tasks for a new vehicle by writing a ``.tasks`` file and giving
+it to ``mclc`` / ``mcl`` with ``--tasks FILE``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+from importlib import resources
+
+from lark import Lark, Token, Tree, UnexpectedInput
+
+from . import ast
+from .errors import Diagnostic, MclError, Source, Span, error, read_source
+from .values import KINDS, UNITS, check
+
+POINT_FIELDS = {"x": 0, "y": 1, "z": 2, "yaw": 3}
+BUILTIN_SOURCES = ("Link", "Mission")  # events the player itself raises
+ACTION_KINDS = ("enable", "disable", "configure")
+
+
+@dataclass(frozen=True)
+class Field:
+    """``target.x``: one coordinate of a point parameter."""
+
+    formal: str
+    field: str
+    span: Span
+
+
+Expr = ast.Value | Field
+
+
+@dataclass(frozen=True)
+class Formal:
+    name: str
+    kind: str | None  # None for a literal word (enable / disable)
+    default: ast.Value | None
+    span: Span
+
+
+@dataclass(frozen=True)
+class ActionSpec:
+    kind: str
+    behaviour: str
+    bindings: tuple[tuple[str, Expr], ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class TaskForm:
+    """One call form of a task, e.g. ``KeepHeadDist(enable, heading, distance)``."""
+
+    name: str
+    formals: tuple[Formal, ...]
+    start: tuple[ActionSpec, ...] = ()
+    stop: tuple[ActionSpec, ...] = ()
+    ok: tuple[str, ...] = ()
+    fail: tuple[str, ...] = ()
+    timeout: tuple[Expr, str] | None = None
+    latch: str | None = None
+    unlatch: str | None = None
+    span: Span = field(default=Span("<none>", 0, 0), compare=False)
+
+    @property
+    def immediate(self) -> bool:
+        """Ends at once (ok) after sending its start actions."""
+        return not self.ok and not self.fail and self.timeout is None
+
+    @property
+    def signature(self) -> str:
+        parts = [f.name if f.kind is None else
+                 f"{f.name}: {f.kind}" + (" = …" if f.default is not None else "")
+                 for f in self.formals]
+        return f"{self.name}({', '.join(parts)})"
+
+    def behaviours_on_while_running(self) -> tuple[str, ...]:
+        return tuple(a.behaviour for a in self.start if a.kind == "enable")
+
+
+@dataclass(frozen=True)
+class Behaviour:
+    name: str
+    dofs: tuple[str, ...]
+    events: tuple[str, ...]
+    span: Span
+
+
+@dataclass
+class Library:
+    behaviours: dict[str, Behaviour] = field(default_factory=dict)
+    tasks: dict[str, list[TaskForm]] = field(default_factory=dict)
+    files: list[str] = field(default_factory=list)
+
+    def dofs(self) -> dict[str, tuple[str, ...]]:
+        return {b.name: b.dofs for b in self.behaviours.values()}
+
+
+@lru_cache(maxsize=1)
+def _lark() -> Lark:
+    return Lark.open_from_package("mcl", "tasks.lark", ("grammar",), parser="lalr",
+                                  propagate_positions=True, maybe_placeholders=True,
+                                  start="library")
+
+
+SHIPPED = ("ictineu",)
+
+
+def is_shipped(name: str) -> bool:
+    return name in SHIPPED
+
+
+def _shipped(name: str) -> Source:
+    text = resources.files("mcl").joinpath("tasks", name).read_text("utf-8")
+    return Source(f"<mcl>/tasks/{name}", text)
+
+
+def load(paths: list[str] | None = None) -> Library:
+    """The core library plus the given ``.tasks`` files (default: the Ictineu library)."""
+    sources = [_shipped("core.tasks")]
+    paths = paths or ["ictineu"]
+    sources += [_shipped(f"{p}.tasks") if is_shipped(p) else read_source(p) for p in paths]
+    return load_sources(sources)
+
+
+def load_sources(sources: list[Source]) -> Library:
+    library = Library()
+    pending: list[tuple[Source, TaskForm]] = []
+    for source in sources:
+        library.files.append(source.name)
+        try:
+            tree = _lark().parse(source.text)
+        except UnexpectedInput as exc:
+            raise error(source, "task library: " + _syntax_message(exc),
+                        source.span(max(exc.line, 1), max(exc.column, 1)),
+                        "see mcl/grammar/tasks.lark and docs/TASKS.md for the syntax",
+                        code="library-syntax") from None
+        builder = _Builder(source)
+        for node in tree.children:
+            assert isinstance(node, Tree)
+            if node.data == "behaviour":
+                b = builder.behaviour(node)
+                if b.name in library.behaviours:
+                    raise error(source, f"behaviour {b.name} is declared twice", b.span,
+                                code="library-duplicate")
+                library.behaviours[b.name] = b
+            else:
+                pending.append((source, builder.task(node)))
+    for source, form in pending:  # tasks may use behaviours declared in any file
+        _validate(source, library, form)
+        library.tasks.setdefault(form.name, []).append(form)
+    return library
+
+
+def _syntax_message(exc: UnexpectedInput) -> str:
+    token = getattr(exc, "token", None)
+    if token is not None:
+        return f"unexpected '{token}'"
+    char = getattr(exc, "char", None)
+    return f"unexpected character {char!r}" if char else "syntax error"
+
+
+class _Builder:
+    def __init__(self, source: Source):
+        self.source = source
+
+    def span(self, node: Tree[Token] | Token) -> Span:
+        if isinstance(node, Token):
+            return self.source.span(node.line or 1, node.column or 1,
+                                    node.end_line or 0, node.end_column or 0)
+        m = node.meta
+        return self.source.span(getattr(m, "line", 1), getattr(m, "column", 1),
+                                getattr(m, "end_line", 0), getattr(m, "end_column", 0))
+
+    def behaviour(self, node: Tree[Token]) -> Behaviour:
+        name, drives, events = node.children
+        dofs = tuple(str(t) for t in drives.children) if isinstance(drives, Tree) else ()
+        evs = tuple(str(t) for t in events.children) if isinstance(events, Tree) else ()
+        assert isinstance(name, Token)
+        return Behaviour(str(name), dofs, evs, self.span(name))
+
+    def task(self, node: Tree[Token]) -> TaskForm:
+        name = node.children[0]
+        assert isinstance(name, Token)
+        formals: list[Formal] = []
+        clauses: dict[str, object] = {}
+        for child in node.children[1:]:
+            if child is None:
+                continue
+            assert isinstance(child, Tree)
+            if child.data == "formal":
+                formals.append(self.formal(child))
+                continue
+            key = str(child.data)
+            if key in clauses:
+                raise error(self.source, f"task {name}: '{key}' is given twice",
+                            self.span(child), "write each clause once", code="library-clause")
+            clauses[key] = self.clause(child)
+        timeout = clauses.get("timeout")
+        return TaskForm(
+            str(name), tuple(formals),
+            start=tuple(clauses.get("start", ())),  # type: ignore[arg-type]
+            stop=tuple(clauses.get("stop", ())),  # type: ignore[arg-type]
+            ok=tuple(clauses.get("ok", ())),  # type: ignore[arg-type]
+            fail=tuple(clauses.get("fail", ())),  # type: ignore[arg-type]
+            timeout=timeout,  # type: ignore[arg-type]
+            latch=clauses.get("latch"),  # type: ignore[arg-type]
+            unlatch=clauses.get("unlatch"),  # type: ignore[arg-type]
+            span=self.span(name))
+
+    def formal(self, node: Tree[Token]) -> Formal:
+        name, kind, default = node.children
+        assert isinstance(name, Token)
+        span = self.span(name)
+        if kind is None:
+            if str(name) not in ast.WORDS:
+                raise error(self.source, f"parameter '{name}' has no kind",
+                            span, f"write '{name}: KIND' with KIND one of {', '.join(KINDS)}",
+                            code="library-kind")
+            return Formal(str(name), None, None, span)
+        if str(kind) not in KINDS:
+            raise error(self.source, f"unknown kind '{kind}'", self.span(kind),
+                        f"kinds are {', '.join(KINDS)}", code="library-kind")
+        value = self.value(default) if default is not None else None
+        return Formal(str(name), str(kind), value, span)
+
+    def clause(self, node: Tree[Token]) -> object:
+        kids = [c for c in node.children if c is not None]
+        match node.data:
+            case "start" | "stop":
+                return [self.action(k) for k in kids if isinstance(k, Tree)]
+            case "ok" | "fail":
+                return [".".join(str(t) for t in k.children) for k in kids
+                        if isinstance(k, Tree)]
+            case "timeout":
+                expr, status = kids
+                if str(status) not in ("ok", "fail"):
+                    raise error(self.source, f"a timeout ends 'ok' or 'fail', not '{status}'",
+                                self.span(status), code="library-timeout")
+                return (self.expr(expr), str(status))
+            case "latch" | "unlatch":
+                return str(kids[0])
+        raise AssertionError(node.data)
+
+    def action(self, node: Tree[Token]) -> ActionSpec:
+        kind, behaviour, *bindings = node.children
+        assert isinstance(kind, Token) and isinstance(behaviour, Token)
+        if str(kind) not in ACTION_KINDS:
+            raise error(self.source, f"unknown action '{kind}'", self.span(kind),
+                        "actions are enable, disable and configure", code="library-action")
+        out: list[tuple[str, Expr]] = []
+        for b in bindings:
+            if b is None:
+                continue
+            assert isinstance(b, Tree)
+            if b.data == "same_name":
+                tok = b.children[0]
+                assert isinstance(tok, Token)
+                out.append((str(tok), ast.Ref(str(tok), self.span(tok))))
+            else:
+                key, expr = b.children
+                out.append((str(key), self.expr(expr)))
+        return ActionSpec(str(kind), str(behaviour), tuple(out), self.span(node))
+
+    def expr(self, node: Tree[Token] | Token | None) -> Expr:
+        if isinstance(node, Tree) and node.data == "field":
+            formal, name = node.children
+            return Field(str(formal), str(name), self.span(node))
+        return self.value(node)
+
+    def value(self, node: Tree[Token] | Token | None) -> ast.Value:
+        # The value rules are the same as MCL's; reuse the mission builder.
+        from .parser import _Builder as MissionBuilder
+
+        return MissionBuilder(self.source).value(node)
+
+
+def _validate(source: Source, library: Library, form: TaskForm) -> None:
+    """Every name a task declaration uses must exist and fit."""
+    formals = {f.name: f for f in form.formals if f.kind is not None}
+    problems: list[Diagnostic] = []
+
+    def fail(message: str, span: Span, hint: str = "") -> None:
+        problems.append(source.diagnostic("error", f"task {form.name}: {message}", span, hint,
+                                          "library-check"))
+
+    def check_expr(expr: Expr) -> None:
+        if isinstance(expr, Field):
+            f = formals.get(expr.formal)
+            if f is None:
+                fail(f"'{expr.formal}' is not a parameter of this task", expr.span)
+            elif f.kind != "point" or expr.field not in POINT_FIELDS:
+                fail(f"'{expr.formal}.{expr.field}': only the x, y, z, yaw of a point "
+                     "parameter can be taken", expr.span)
+        elif isinstance(expr, ast.Ref):
+            if expr.name not in formals and expr.name not in ast.WORDS:
+                fail(f"'{expr.name}' is not a parameter of this task", expr.span,
+                     f"parameters: {', '.join(formals) or 'none'}")
+
+    for action in form.start + form.stop:
+        if action.behaviour not in library.behaviours:
+            fail(f"unknown behaviour '{action.behaviour}'", action.span,
+                 "declare it with 'behaviour NAME drives ... events ...;'")
+        for _, expr in action.bindings:
+            check_expr(expr)
+    for event in form.ok + form.fail:
+        src, _, name = event.partition(".")
+        b = library.behaviours.get(src)
+        if src in BUILTIN_SOURCES:
+            continue
+        if b is None:
+            fail(f"event '{event}' comes from an unknown behaviour", form.span)
+        elif name not in b.events:
+            fail(f"behaviour {src} has no event '{name}'", form.span,
+                 f"its events: {', '.join(b.events) or 'none'}")
+    if form.timeout is not None:
+        expr, _ = form.timeout
+        if isinstance(expr, ast.Ref):
+            f = formals.get(expr.name)
+            if f is None or f.kind != "duration":
+                fail(f"timeout '{expr.name}' must be a duration parameter", expr.span)
+        elif isinstance(expr, ast.Number):
+            if expr.unit is not None and UNITS[expr.unit][0] != "duration":
+                fail("a timeout is a duration (s, min, h)", expr.span)
+        else:
+            fail("a timeout is a duration or a duration parameter", form.span)
+    for latched in (form.latch, form.unlatch):
+        if latched is not None and latched not in library.behaviours:
+            fail(f"latch of unknown behaviour '{latched}'", form.span)
+    if form.latch and not form.immediate:
+        fail("a task that latches a behaviour must end at once (no ok, fail or timeout)",
+             form.span)
+    for f in form.formals:
+        if f.default is not None and f.kind is not None:
+            for p in check(f.default, f.kind, {}):
+                fail(f"default of '{f.name}': {p.message}", f.span)
+    words = tuple((i, f.name) for i, f in enumerate(form.formals) if f.kind is None)
+    for other in library.tasks.get(form.name, []):
+        other_words = tuple((i, f.name) for i, f in enumerate(other.formals) if f.kind is None)
+        if other_words == words and _arity(other) == _arity(form):
+            fail(f"this call form is the same as the one at {other.span}", form.span,
+                 "give each form of a task different words (enable / disable) or arities")
+    if problems:
+        raise MclError(problems)
+
+
+def _arity(form: TaskForm) -> tuple[int, int]:
+    required = sum(1 for f in form.formals if f.kind is None or f.default is None)
+    return required, len(form.formals)

@@ -1,0 +1,123 @@
+"""What every template shares: the block interface, absorbing an abort, switching latches off.
+
+Every block compiles to a subnet with the input places ``begin`` and ``abort`` and the output
+places ``ok``, ``fail`` and ``aborted`` (MCL.md §5). One token in ``begin`` leads to exactly one
+token in ``ok``, ``fail`` or ``aborted``, and the subnet is then empty again.
+
+Why ``aborted`` is a place of its own: a parent that aborts a child must know whether the
+child took the abort token. If the child had already ended, the token is still in the child's
+``abort`` place and the parent must absorb it; if the child took it, the child ends in
+``aborted``. With only ``fail`` the two cases look alike (a child that failed by itself while
+the abort was on its way), and a P/T net cannot test a place for emptiness. The parent reads
+``aborted`` as fail; the mission as a whole ends fail when aborted.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from petri.net import Action, Net, Origin
+
+from .. import ast
+from ..errors import Span
+
+if TYPE_CHECKING:
+    from ..checker import Checked
+
+
+@dataclass(frozen=True)
+class Interface:
+    name: str
+    begin: int
+    abort: int
+    ok: int
+    fail: int
+    aborted: int
+
+
+@dataclass
+class Latch:
+    """A latched behaviour's state machine: off, or on from one call site."""
+
+    behaviour: str
+    off: int
+    sites: dict[int, int] = field(default_factory=dict)  # id(Call) -> its "on" place
+
+    def states(self) -> list[int]:
+        return [self.off, *self.sites.values()]
+
+
+@dataclass
+class Context:
+    net: Net
+    checked: Checked
+    latches: dict[str, Latch] = field(default_factory=dict)
+    names: set[str] = field(default_factory=set)
+
+    # -- naming and building ----------------------------------------------------------------
+    def prefix(self, kind: str, span: Span) -> str:
+        base = f"{kind}@{span.line}:{span.col}"
+        name, n = base, 1
+        while name in self.names:
+            n += 1
+            name = f"{base}#{n}"
+        self.names.add(name)
+        return name
+
+    def origin(self, span: Span, text: str, kind: str) -> Origin:
+        return Origin(span.file, span.line, span.col, text, kind)
+
+    def place(self, name: str, behaviours: tuple[str, ...] = (),
+              origin: Origin | None = None) -> int:
+        return self.net.add_place(name, behaviours, origin)
+
+    def interface(self, name: str, origin: Origin) -> Interface:
+        return Interface(name, *(self.place(f"{name}.{role}", origin=origin)
+                                 for role in ("begin", "abort", "ok", "fail", "aborted")))
+
+    def transition(self, name: str, inputs: list[int], outputs: list[int], label: str,
+                   origin: Origin, actions: tuple[Action, ...] = (), event: str | None = None,
+                   timer: float | str | None = None) -> int:
+        return self.net.add_transition(name, inputs, outputs, actions=actions, event=event,
+                                       timer=timer, origin=origin, label=label)
+
+    # -- the two mechanisms every composite template uses -----------------------------------
+    def absorb(self, child: Interface, waiting: int, done: list[int], name: str,
+               origin: Origin) -> None:
+        """The parent has put a token in ``child.abort`` and marked ``waiting``: the child
+        either takes the abort (and ends in ``aborted``) or had already ended, in which case
+        the abort token is absorbed here together with the child's result."""
+        self.transition(f"{name}.stopped", [waiting, child.aborted], done,
+                        f"{child.name} stopped", origin)
+        self.transition(f"{name}.late_ok", [waiting, child.ok, child.abort], done,
+                        f"{child.name} had already ended ok", origin)
+        self.transition(f"{name}.late_fail", [waiting, child.fail, child.abort], done,
+                        f"{child.name} had already ended fail", origin)
+
+    def abort_entry(self, block: ast.Block, name: str, aborted: int, origin: Origin) -> int:
+        """The place an aborted block goes to once its children have stopped. From there the
+        latched behaviours switched on inside the block and still on are switched off, one
+        behaviour after the other, before the block reports ``aborted``."""
+        inside = {id(c) for c in ast.calls(block)}
+        latched = [latch for _, latch in sorted(self.latches.items())
+                   if any(site in inside for site in latch.sites)]
+        if not latched:
+            return aborted
+        entry = current = self.place(f"{name}.cleanup", origin=origin)
+        for i, latch in enumerate(latched):
+            after = aborted if i == len(latched) - 1 else self.place(
+                f"{name}.cleanup{i + 1}", origin=origin)
+            for state in latch.states():
+                owned = any(state == on and site in inside for site, on in latch.sites.items())
+                if owned:
+                    self.transition(f"{name}.off.{self.net.places[state].name}",
+                                    [current, state], [after, latch.off],
+                                    f"switch {latch.behaviour} off (aborted)", origin,
+                                    actions=(Action("disable", latch.behaviour),))
+                else:
+                    self.transition(f"{name}.keep.{self.net.places[state].name}",
+                                    [current, state], [after, state],
+                                    f"{latch.behaviour} not on from inside", origin)
+            current = after
+        return entry

@@ -1,0 +1,43 @@
+"""Template of the mission itself: the root that the player starts and may abort.
+
+::
+
+    begin (marked) ─► body ─ok─► ok
+                           └fail─► fail
+    event Mission.abort (the operator, or Link.lost that no block catches)
+         ─► abort body, wait ─► every latched behaviour off ─► fail
+
+The proper final markings are one token in ``MISSION.ok`` or ``MISSION.fail`` with every
+latched behaviour off.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from .. import ast
+from .common import Context, Interface
+
+ABORT_EVENT = "Mission.abort"
+
+
+def build(ctx: Context, mission: ast.Mission,
+          compile_block: Callable[[Context, ast.Block], Interface]) -> Interface:
+    name = "MISSION"
+    origin = ctx.origin(mission.span, f"MISSION {mission.name or ''}".strip(), "MISSION")
+    begin, ok, fail = (ctx.place(f"{name}.{role}", origin=origin)
+                       for role in ("begin", "ok", "fail"))
+    body = compile_block(ctx, mission.body)
+    running = ctx.place(f"{name}.running", origin=origin)
+    stopping = ctx.place(f"{name}.stopping", origin=origin)
+    cleanup = ctx.abort_entry(mission.body, name, fail, origin)
+
+    ctx.transition(f"{name}.start", [begin], [body.begin, running], "mission starts",
+                   origin)
+    ctx.transition(f"{name}.ok", [running, body.ok], [ok], "mission ends ok", origin)
+    ctx.transition(f"{name}.fail", [running, body.fail], [fail], "mission ends fail",
+                   origin)
+    ctx.transition(f"{name}.abort", [running], [body.abort, stopping], "mission aborted",
+                   origin, event=ABORT_EVENT)
+    ctx.absorb(body, stopping, [cleanup], f"{name}.stop", origin)
+    return Interface(name, begin, -1, ok, fail, -1)

@@ -1,0 +1,108 @@
+"""Template of a task call.
+
+A task that waits::
+
+    begin ──start──► run ──ok event──► ok          (each ending sends the stop actions)
+                      ├──fail event──► fail
+                      ├──timeout─────► ok | fail
+    abort ─────────── └──abort───────► aborted
+
+A task that ends at once sends its start actions and puts its token in ``ok``. If it latches
+a behaviour (``latch:``) it also moves that behaviour's state machine to "on from here";
+``unlatch:`` moves it to "off". Such a task never holds a token while it could be aborted, so
+an abort that reaches it is a late one and its parent absorbs it.
+"""
+
+from __future__ import annotations
+
+from petri.net import Action
+
+from .. import ast, printer
+from ..checker import Resolved
+from ..tasklib import POINT_FIELDS, ActionSpec, Expr, Field
+from ..values import Unresolved, evaluate
+from .common import Context, Interface
+
+
+def build(ctx: Context, call: ast.Call) -> Interface:
+    resolved = ctx.checked.resolved(call)
+    form = resolved.form
+    name = ctx.prefix(call.name, call.span)
+    origin = ctx.origin(call.span, printer.call(call), "task")
+    io = ctx.interface(name, origin)
+    start = tuple(_action(ctx, a, resolved) for a in form.start)
+    stop = tuple(_action(ctx, a, resolved) for a in form.stop)
+
+    if form.immediate:
+        if form.latch or form.unlatch:
+            latch = ctx.latches[form.latch or form.unlatch or ""]
+            target = latch.sites[id(call)] if form.latch else latch.off
+            for state in latch.states():
+                ctx.transition(f"{name}.from.{ctx.net.places[state].name}",
+                               [io.begin, state], [io.ok, target], "start and end",
+                               origin, actions=start)
+        else:
+            ctx.transition(f"{name}.do", [io.begin], [io.ok], "start and end", origin,
+                           actions=start)
+        return io
+
+    run = ctx.place(f"{name}.run", form.behaviours_on_while_running(), origin)
+    ctx.transition(f"{name}.start", [io.begin], [run], "start", origin, actions=start)
+    for event in form.ok:
+        ctx.transition(f"{name}.ok.{event}", [run], [io.ok], f"{event} → ok", origin,
+                       actions=stop, event=event)
+    for event in form.fail:
+        ctx.transition(f"{name}.fail.{event}", [run], [io.fail], f"{event} → fail", origin,
+                       actions=stop, event=event)
+    timeouts: list[tuple[Expr, str]] = []
+    if resolved.timeout is not None:  # a per-call timeout replaces a declared fail timeout
+        timeouts.append((resolved.timeout, "fail"))
+        if form.timeout is not None and form.timeout[1] == "ok":
+            timeouts.append(form.timeout)
+    elif form.timeout is not None:
+        timeouts.append(form.timeout)
+    for i, (expr, status) in enumerate(timeouts):
+        seconds = _timer(ctx, expr, resolved)
+        shown = f"{seconds:g} s" if isinstance(seconds, float) else seconds
+        ctx.transition(f"{name}.timeout{i or ''}", [run], [io.ok if status == "ok" else io.fail],
+                       f"timeout {shown} → {status}", origin, actions=stop, timer=seconds)
+    ctx.transition(f"{name}.abort", [run, io.abort], [io.aborted], "aborted", origin,
+                   actions=stop)
+    return io
+
+
+def _value(ctx: Context, expr: Expr, resolved: Resolved, kind: str) -> object:
+    """An action parameter or timer: a number or list, or {"param": name} when the mission
+    parameter it comes from has no value yet (the player fills it in at run time)."""
+    env = ctx.checked.params
+    if isinstance(expr, Field):
+        value = resolved.args[expr.formal]
+        try:
+            point = evaluate(value, "point", env)
+        except Unresolved as missing:
+            return {"param": missing.name, "field": expr.field}
+        index = POINT_FIELDS[expr.field]
+        assert isinstance(point, list)
+        return point[index] if index < len(point) else None
+    if isinstance(expr, ast.Ref) and expr.name in resolved.args:
+        formal = next(f for f in resolved.form.formals if f.name == expr.name)
+        value, kind = resolved.args[expr.name], formal.kind or kind
+    else:
+        value = expr
+    try:
+        return evaluate(value, kind, env)
+    except Unresolved as missing:
+        return {"param": missing.name}
+
+
+def _action(ctx: Context, spec: ActionSpec, resolved: Resolved) -> Action:
+    params = tuple((key, _value(ctx, expr, resolved, "list")) for key, expr in spec.bindings)
+    return Action(spec.kind, spec.behaviour, params)
+
+
+def _timer(ctx: Context, expr: Expr, resolved: Resolved) -> float | str:
+    value = _value(ctx, expr, resolved, "duration")
+    if isinstance(value, dict):
+        return str(value["param"])
+    assert isinstance(value, float | int)
+    return float(value)

@@ -1,0 +1,148 @@
+"""Kinds of values, units, and turning MCL values into the JSON that actions carry.
+
+Kinds a task parameter can declare:
+
+==========  ============================================  ==========================
+kind        written as                                    carried as
+==========  ============================================  ==========================
+number      ``3``, ``-1.5``                               float
+length      ``1.5 m``, ``20 cm`` (plain numbers: metres)  float, metres
+angle       ``90 deg``, ``1.2 rad`` (plain: degrees)      float, degrees
+duration    ``30 s``, ``2 min`` (plain: seconds)          float, seconds
+point       ``(x, y, z, yaw)`` or ``(y, z)``: 2–4 numbers  list of floats
+path        ``[(y, z), ...]``; a path parameter inside     list of points
+            a list is spliced in: ``[path]``
+list        ``[a, b, ...]``                               list
+==========  ============================================  ==========================
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from . import ast
+
+KINDS = ("number", "length", "angle", "duration", "point", "path", "list")
+UNITS: dict[str, tuple[str, float]] = {
+    "m": ("length", 1.0), "cm": ("length", 0.01), "mm": ("length", 0.001),
+    "km": ("length", 1000.0),
+    "deg": ("angle", 1.0), "rad": ("angle", 57.29577951308232),
+    "s": ("duration", 1.0), "ms": ("duration", 0.001), "min": ("duration", 60.0),
+    "h": ("duration", 3600.0),
+}
+NUMERIC = ("number", "length", "angle", "duration")
+
+
+@dataclass(frozen=True)
+class Problem:
+    message: str
+    node: ast.Value
+
+
+def describe(value: ast.Value) -> str:
+    match value:
+        case ast.Number(unit=None):
+            return "a number"
+        case ast.Number(unit=u):
+            return f"a {UNITS[u][0]} ({u})" if u in UNITS else "a number"
+        case ast.Ref(name=n):
+            return f"'{n}'"
+        case ast.ListValue():
+            return "a list"
+        case ast.Point(items=items):
+            return f"a point of {len(items)}"
+    return "a value"
+
+
+def check(value: ast.Value, kind: str, param_kinds: dict[str, str]) -> list[Problem]:
+    """Problems with giving ``value`` where ``kind`` is expected. References to mission
+    parameters are recorded in ``param_kinds`` (their kind is the kind of their first use)."""
+    if isinstance(value, ast.Ref):
+        if value.name in ast.WORDS:
+            return [Problem(f"'{value.name}' is a word, but a {kind} is expected here", value)]
+        known = param_kinds.setdefault(value.name, kind)
+        if known != kind and not (kind == "list" or {known, kind} <= {"path", "list"}):
+            return [Problem(f"parameter '{value.name}' is used as a {kind} here but as a "
+                            f"{known} elsewhere", value)]
+        return []
+    if kind in NUMERIC:
+        if not isinstance(value, ast.Number):
+            return [Problem(f"expected a {kind}, got {describe(value)}", value)]
+        if value.unit is None:
+            return []
+        unit_kind = UNITS[value.unit][0]
+        if kind == "number" or unit_kind != kind:
+            return [Problem(f"expected a {kind}, got {describe(value)}", value)]
+        return []
+    if kind == "point":
+        if not isinstance(value, ast.Point) or not 2 <= len(value.items) <= 4:
+            return [Problem(f"expected a point (x, y, z, yaw) of 2 to 4 numbers, got "
+                            f"{describe(value)}", value)]
+        problems = []
+        for i, item in enumerate(value.items):
+            item_kind = "angle" if i == 3 else "length"
+            problems += check(item, item_kind, param_kinds)
+        return problems
+    if kind == "path":
+        if not isinstance(value, ast.ListValue):
+            return [Problem(f"expected a path [(y, z), ...], got {describe(value)}", value)]
+        problems = []
+        for item in value.items:
+            if isinstance(item, ast.Ref):  # a path parameter spliced into the list
+                problems += check(item, "path", param_kinds)
+            else:
+                problems += check(item, "point", param_kinds)
+        return problems
+    if kind == "list":
+        if not isinstance(value, ast.ListValue):
+            return [Problem(f"expected a list [a, b, ...], got {describe(value)}", value)]
+        return []
+    raise ValueError(f"unknown kind {kind}")
+
+
+class Unresolved(Exception):
+    """A parameter has no value yet (fine when only checking a mission)."""
+
+    def __init__(self, name: str):
+        super().__init__(name)
+        self.name = name
+
+
+def evaluate(value: ast.Value, kind: str, env: dict[str, ast.Value]) -> object:
+    """The JSON value of an MCL value, in base units; raises Unresolved for a parameter
+    without a value."""
+    if isinstance(value, ast.Ref):
+        if value.name not in env:
+            raise Unresolved(value.name)
+        return evaluate(env[value.name], kind, env)
+    match value:
+        case ast.Number(value=v, unit=u):
+            return v * UNITS[u][1] if u else v
+        case ast.Point(items=items):
+            return [evaluate(it, "angle" if i == 3 else "length", env)
+                    for i, it in enumerate(items)]
+        case ast.ListValue(items=items):
+            out: list[object] = []
+            for it in items:
+                if kind == "path" and isinstance(it, ast.Ref):
+                    spliced = evaluate(it, "path", env)
+                    out.extend(spliced if isinstance(spliced, list) else [spliced])
+                else:
+                    out.append(evaluate(it, "point" if kind == "path" else "list", env))
+            return out
+    raise ValueError(f"cannot evaluate {value!r}")
+
+
+def to_text(value: ast.Value) -> str:
+    """MCL source for a value (used by the pretty-printer and in messages)."""
+    match value:
+        case ast.Number(value=v, unit=u):
+            num = repr(int(v)) if v == int(v) and abs(v) < 1e15 else repr(v)
+            return f"{num} {u}" if u else num
+        case ast.Ref(name=n):
+            return n
+        case ast.ListValue(items=items):
+            return "[" + ", ".join(to_text(i) for i in items) + "]"
+        case ast.Point(items=items):
+            return "(" + ", ".join(to_text(i) for i in items) + ")"
+    raise ValueError(f"not a value: {value!r}")

@@ -1,0 +1,175 @@
+"""Place/transition nets: the one data structure that is verified and then executed.
+
+A :class:`Net` is a list of places, a list of transitions with weighted input and output
+arcs, an initial marking, and (for nets compiled from MCL) the proper final markings and the
+degrees of freedom each behaviour drives. Transitions compiled from MCL also carry what the
+player needs to run them: the actions they send, the event or timer they wait for, and the
+MCL source they come from. Nets read from PNML carry none of that and are verified alike.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+Json = Any
+
+
+@dataclass(frozen=True)
+class Origin:
+    """Where in a mission a place or transition comes from (for messages and counterexamples)."""
+
+    file: str
+    line: int
+    col: int
+    text: str = ""  # the construct as written, e.g. "GoTo(initialPos)"
+    kind: str = ""  # "task", "latch", or the construct: "TRY", "SEQ", "AND", "OR", ...
+
+    def where(self) -> str:
+        return f"{self.file}:{self.line}:{self.col}"
+
+
+@dataclass(frozen=True)
+class Action:
+    """An order to the vehicle: enable, disable or configure one behaviour (AAL.md)."""
+
+    kind: str  # "enable" | "disable" | "configure"
+    behaviour: str
+    params: tuple[tuple[str, Json], ...] = ()
+
+    def __str__(self) -> str:
+        args = ", ".join(f"{k}={_short(v)}" for k, v in self.params)
+        return f"{self.kind} {self.behaviour}" + (f"({args})" if args else "")
+
+
+def _short(value: Json) -> str:
+    text = repr(value) if not isinstance(value, str) else value
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+@dataclass(frozen=True)
+class Place:
+    name: str
+    # Behaviours that are switched on while this place holds a token (a running task's
+    # place, or a latched behaviour's "on" place).
+    behaviours: tuple[str, ...] = ()
+    origin: Origin | None = None
+
+
+@dataclass(frozen=True)
+class Transition:
+    name: str
+    inputs: tuple[tuple[int, int], ...]  # (place index, weight)
+    outputs: tuple[tuple[int, int], ...]
+    actions: tuple[Action, ...] = ()
+    event: str | None = None  # e.g. "GoTo.reached": fires only when this event arrives
+    timer: float | str | None = None  # seconds, or a mission parameter's name
+    origin: Origin | None = None
+    label: str = ""  # what firing it means, in the mission's words
+
+    @property
+    def immediate(self) -> bool:
+        """Fires as soon as it is enabled (no event, no timer)."""
+        return self.event is None and self.timer is None
+
+
+@dataclass
+class Net:
+    name: str
+    places: list[Place] = field(default_factory=list)
+    transitions: list[Transition] = field(default_factory=list)
+    initial: dict[int, int] = field(default_factory=dict)
+    # Proper final markings (MCL nets): each a full marking as {place: tokens}.
+    finals: list[dict[int, int]] = field(default_factory=list)
+    # Degrees of freedom each behaviour drives (from the task library).
+    dofs: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    _index: dict[str, int] = field(default_factory=dict, repr=False)
+
+    # -- building -------------------------------------------------------------------------
+    def add_place(self, name: str, behaviours: tuple[str, ...] = (),
+                  origin: Origin | None = None) -> int:
+        if name in self._index:
+            raise ValueError(f"duplicate place name {name!r}")
+        self._index[name] = len(self.places)
+        self.places.append(Place(name, behaviours, origin))
+        return self._index[name]
+
+    def add_transition(self, name: str, inputs: list[int] | dict[int, int],
+                       outputs: list[int] | dict[int, int], **kw: Any) -> int:
+        self.transitions.append(
+            Transition(name, _arcs(inputs), _arcs(outputs), **kw))
+        return len(self.transitions) - 1
+
+    def place(self, name: str) -> int:
+        return self._index[name]
+
+    # -- views ----------------------------------------------------------------------------
+    def pre(self) -> npt.NDArray[np.int64]:
+        """Input arc weights, shape (transitions, places)."""
+        m = np.zeros((len(self.transitions), len(self.places)), dtype=np.int64)
+        for t, tr in enumerate(self.transitions):
+            for p, w in tr.inputs:
+                m[t, p] += w
+        return m
+
+    def post(self) -> npt.NDArray[np.int64]:
+        """Output arc weights, shape (transitions, places)."""
+        m = np.zeros((len(self.transitions), len(self.places)), dtype=np.int64)
+        for t, tr in enumerate(self.transitions):
+            for p, w in tr.outputs:
+                m[t, p] += w
+        return m
+
+    def incidence(self) -> npt.NDArray[np.int64]:
+        """C = post - pre, shape (places, transitions), so that M' = M + C @ firing-count."""
+        return (self.post() - self.pre()).T
+
+    def initial_vector(self) -> npt.NDArray[np.int64]:
+        v = np.zeros(len(self.places), dtype=np.int64)
+        for p, n in self.initial.items():
+            v[p] = n
+        return v
+
+    def arc_count(self) -> int:
+        return sum(len(t.inputs) + len(t.outputs) for t in self.transitions)
+
+    def describe_marking(self, marking: dict[int, int] | npt.NDArray[np.int64]) -> str:
+        items = marking.items() if isinstance(marking, dict) else enumerate(marking)
+        parts = [self.places[p].name + (f"×{n}" if n > 1 else "")
+                 for p, n in items if n]
+        return "{" + ", ".join(parts) + "}"
+
+    def to_dict(self) -> dict[str, Json]:
+        """A JSON-ready description of the whole net (used by --json and by tests)."""
+        def origin(o: Origin | None) -> Json:
+            return None if o is None else {"file": o.file, "line": o.line, "col": o.col,
+                                           "text": o.text, "kind": o.kind}
+        return {
+            "name": self.name,
+            "places": [{"name": p.name, "behaviours": list(p.behaviours),
+                        "origin": origin(p.origin)} for p in self.places],
+            "transitions": [{
+                "name": t.name,
+                "inputs": {self.places[p].name: w for p, w in t.inputs},
+                "outputs": {self.places[p].name: w for p, w in t.outputs},
+                "actions": [{"kind": a.kind, "behaviour": a.behaviour,
+                             "params": dict(a.params)} for a in t.actions],
+                "event": t.event, "timer": t.timer, "label": t.label,
+                "origin": origin(t.origin)} for t in self.transitions],
+            "initial": {self.places[p].name: n for p, n in self.initial.items() if n},
+            "finals": [{self.places[p].name: n for p, n in f.items() if n}
+                       for f in self.finals],
+            "dofs": {b: list(d) for b, d in self.dofs.items()},
+        }
+
+
+def _arcs(spec: list[int] | dict[int, int]) -> tuple[tuple[int, int], ...]:
+    if isinstance(spec, dict):
+        return tuple(sorted((p, w) for p, w in spec.items() if w))
+    counts: dict[int, int] = {}
+    for p in spec:
+        counts[p] = counts.get(p, 0) + 1
+    return tuple(sorted(counts.items()))

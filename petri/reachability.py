@@ -1,0 +1,263 @@
+"""Explicit reachability graphs of bounded place/transition nets.
+
+Markings are discovered breadth first and numbered in that order (row 0 is the initial
+marking), so a marking's parent, kept for each row, lies on a shortest firing sequence to it.
+
+The hot loop never builds a Python object per marking. A marking is a fixed-width row of token
+counts (``uint8`` when at most 255 tokens may lie in a place, wider otherwise) padded to whole
+64-bit words; a row is stored, hashed and compared as those words. Seen markings live in an
+open-addressing hash table (linear probing) of row numbers; arcs of the reachability graph are
+three integer arrays. The successor loop is compiled with numba when it is installed
+(:mod:`petri._explore_numba`); otherwise a level-by-level numpy search
+(:mod:`petri._explore_numpy`) computes the same numbering, more slowly.
+
+A limit (markings, or tokens in one place) stops the search with ``complete=False``. When it
+stops, the firing sequence to the last marking is checked for the Karp-Miller witness of
+unboundedness: an earlier marking that the later one strictly covers.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from petri.net import Net
+
+IntArray = npt.NDArray[np.integer]
+
+# Why the search stopped (the kernels return these codes).
+COMPLETE, MARKING_LIMIT, TOKEN_LIMIT = 0, 1, 2
+
+
+@dataclass
+class StateSpace:
+    """The reachability graph: markings in BFS order and one arc per firing."""
+
+    markings: npt.NDArray[np.unsignedinteger]  # (n, places); row 0 = initial marking
+    src: npt.NDArray[np.int32]  # one entry per reachability-graph arc
+    dst: npt.NDArray[np.int32]
+    transition: npt.NDArray[np.int32]
+    complete: bool  # False if a limit stopped exploration
+    unbounded_place: int | None = None  # a place proven unbounded (Karp-Miller witness)
+    parent: npt.NDArray[np.int64] | None = None  # BFS tree: parent marking (-1 for row 0)
+    parent_transition: npt.NDArray[np.int32] | None = None  # transition fired from parent
+    stop_reason: str = ""  # "" when complete, else what limit stopped the search
+    engine: str = ""  # "numba" or "numpy"
+
+    @property
+    def n_markings(self) -> int:
+        return int(self.markings.shape[0])
+
+    @property
+    def n_arcs(self) -> int:
+        return int(self.src.shape[0])
+
+
+@dataclass(frozen=True)
+class _Compiled:
+    """The net in the flat arrays the kernels read (CSR lists per transition)."""
+
+    in_ptr: npt.NDArray[np.int64]  # inputs of t: in_place/in_w[in_ptr[t]:in_ptr[t+1]]
+    in_place: npt.NDArray[np.int64]
+    in_w: npt.NDArray[np.int64]
+    eff_ptr: npt.NDArray[np.int64]  # non-zero effect post - pre of t, same layout
+    eff_place: npt.NDArray[np.int64]
+    eff_delta: npt.NDArray[np.int64]
+    row: npt.NDArray[np.unsignedinteger]  # the initial marking, padded to whole words
+
+
+def compile_net(net: Net, max_tokens: int) -> _Compiled:
+    pre, post = net.pre(), net.post()
+    in_ptr, in_place, in_w = _csr(pre)
+    eff_ptr, eff_place, eff_delta = _csr(post - pre)
+    dtype = row_dtype(max_tokens)
+    width = max(1, len(net.places))
+    per_word = 8 // np.dtype(dtype).itemsize
+    padded = -(-width // per_word) * per_word
+    row = np.zeros(padded, dtype=dtype)
+    initial = net.initial_vector()
+    if initial.size and initial.max() > max_tokens:
+        raise ValueError(f"the initial marking has more than max_tokens={max_tokens} tokens "
+                         "in one place")
+    row[: len(initial)] = initial
+    return _Compiled(in_ptr, in_place, in_w, eff_ptr, eff_place, eff_delta, row)
+
+
+def row_dtype(max_tokens: int) -> type[np.unsignedinteger]:
+    for dtype in (np.uint8, np.uint16, np.uint32):
+        if max_tokens <= np.iinfo(dtype).max:
+            return dtype
+    raise ValueError(f"max_tokens={max_tokens} exceeds 2**32 - 1")
+
+
+def _csr(matrix: npt.NDArray[np.int64]) -> tuple[npt.NDArray[np.int64], ...]:
+    rows, cols = np.nonzero(matrix)
+    ptr = np.zeros(matrix.shape[0] + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=matrix.shape[0]), out=ptr[1:])
+    return ptr, cols.astype(np.int64), matrix[rows, cols].astype(np.int64)
+
+
+def _kernel() -> tuple[str, object]:
+    try:
+        from petri import _explore_numba
+    except ImportError:  # numba is optional: fall back to the numpy search
+        from petri import _explore_numpy
+        return "numpy", _explore_numpy.explore_rows
+    return "numba", _explore_numba.explore_rows
+
+
+def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
+            engine: str = "auto") -> StateSpace:
+    """Breadth-first reachability graph of ``net`` from its initial marking.
+
+    Stops (``complete=False``) after ``max_markings`` markings, or when a firing would put
+    more than ``max_tokens`` tokens in a place. ``engine`` is "auto", "numba" or "numpy".
+    """
+    if not 1 <= max_markings < 2**31:
+        raise ValueError("max_markings must lie in [1, 2**31)")
+    compiled = compile_net(net, max_tokens)
+    name, kernel = _kernel()
+    if engine == "numpy" or (engine == "auto" and name == "numpy"):
+        from petri import _explore_numpy
+        name, kernel = "numpy", _explore_numpy.explore_rows
+    elif engine == "numba" and name != "numba":
+        raise ValueError("numba is not installed")
+    words, parent, parent_t, src, dst, tr, status, stop_at, stop_t = kernel(  # type: ignore[operator]
+        compiled.row.view(np.uint64), compiled.row, compiled.in_ptr, compiled.in_place,
+        compiled.in_w, compiled.eff_ptr, compiled.eff_place, compiled.eff_delta,
+        max_markings, max_tokens)
+    markings = words.view(compiled.row.dtype)[:, : len(net.places)]
+    ss = StateSpace(markings, src, dst, tr, status == COMPLETE, None, parent, parent_t,
+                    engine=name)
+    if status != COMPLETE:
+        ss.stop_reason = (f"more than {max_markings} markings" if status == MARKING_LIMIT
+                          else f"more than {max_tokens} tokens in a place")
+        ss.unbounded_place = _unbounded_witness(net, ss, int(stop_at), int(stop_t))
+    return ss
+
+
+def _unbounded_witness(net: Net, ss: StateSpace, at: int, transition: int) -> int | None:
+    """A place that the Karp-Miller criterion proves unbounded, if the path shows one.
+
+    The marking reached by firing ``transition`` (or none: -1) from marking ``at`` is compared
+    with every marking on its BFS path: if it strictly covers one of them, the firing sequence
+    between the two can be repeated forever and each place it increases is unbounded.
+    """
+    if at < 0:
+        return None
+    last = ss.markings[at].astype(np.int64)
+    if transition >= 0:
+        last = last + net.incidence()[:, transition]
+    path = ss.markings[_path_markings(ss, at)].astype(np.int64)
+    covered = np.all(path <= last, axis=1) & np.any(path < last, axis=1)
+    if not covered.any():
+        return None
+    earlier = path[int(np.argmax(covered))]
+    return int(np.argmax(last > earlier))
+
+
+def _path_markings(ss: StateSpace, index: int) -> list[int]:
+    """Rows on the BFS-tree path from row 0 to ``index`` (inclusive)."""
+    assert ss.parent is not None
+    rows = [index]
+    for _ in range(ss.n_markings):  # a tree path visits each row at most once
+        if rows[-1] == 0:
+            break
+        rows.append(int(ss.parent[rows[-1]]))
+    return rows[::-1]
+
+
+# -- questions about a state space ----------------------------------------------------------
+
+def out_degree(ss: StateSpace) -> npt.NDArray[np.int64]:
+    return np.bincount(ss.src, minlength=ss.n_markings)
+
+
+def deadlocks(ss: StateSpace) -> npt.NDArray[np.int64]:
+    """Indices of markings with no successor (BFS order, so the first is a nearest one).
+
+    On an incomplete state space, markings whose successors were never computed are not
+    reported.
+    """
+    dead = np.flatnonzero(out_degree(ss) == 0)
+    if not ss.complete:
+        last_expanded = int(ss.src.max()) if ss.n_arcs else 0
+        dead = dead[dead < last_expanded]
+    return dead
+
+
+def dead_transitions(net: Net, ss: StateSpace) -> list[int]:
+    """Transitions that fire from no reachable marking (meaningful when ``ss.complete``)."""
+    fired = np.bincount(ss.transition, minlength=len(net.transitions))
+    return [int(t) for t in np.flatnonzero(fired == 0)]
+
+
+def max_tokens(ss: StateSpace) -> int:
+    """The largest number of tokens in one place over all reachable markings."""
+    return int(ss.markings.max()) if ss.markings.size else 0
+
+
+def place_bounds(ss: StateSpace) -> npt.NDArray[np.int64]:
+    if not ss.markings.size:
+        return np.zeros(ss.markings.shape[1], dtype=np.int64)
+    return ss.markings.max(axis=0).astype(np.int64)
+
+
+def is_one_safe(ss: StateSpace) -> bool:
+    return max_tokens(ss) <= 1
+
+
+def shortest_path(ss: StateSpace, target_indices: IntArray | list[int]) -> list[int]:
+    """Transitions of a shortest firing sequence from the initial marking to any target.
+
+    Markings are numbered in BFS order, so the smallest target index is a nearest one and the
+    BFS-tree path to it is a shortest one.
+    """
+    targets = np.asarray(target_indices, dtype=np.int64)
+    if targets.size == 0:
+        raise ValueError("no target marking")
+    if ss.parent is None or ss.parent_transition is None:
+        return _bfs_path(ss, targets)
+    rows = _path_markings(ss, int(targets.min()))
+    return [int(ss.parent_transition[r]) for r in rows[1:]]
+
+
+def _bfs_path(ss: StateSpace, targets: npt.NDArray[np.int64]) -> list[int]:
+    """Shortest path by a fresh BFS over the arcs (for state spaces built without parents)."""
+    order = np.argsort(ss.src, kind="stable")
+    starts = np.searchsorted(ss.src[order], np.arange(ss.n_markings + 1))
+    parent = np.full(ss.n_markings, -1, dtype=np.int64)
+    via = np.full(ss.n_markings, -1, dtype=np.int64)
+    wanted = set(int(t) for t in targets)
+    seen = np.zeros(ss.n_markings, dtype=bool)
+    seen[0] = True
+    queue = deque([0])
+    found = 0 if 0 in wanted else -1
+    while queue and found < 0:  # each marking enters the queue at most once
+        m = queue.popleft()
+        for a in order[starts[m]:starts[m + 1]]:
+            d = int(ss.dst[a])
+            if not seen[d]:
+                seen[d], parent[d], via[d] = True, m, int(ss.transition[a])
+                queue.append(d)
+                if d in wanted:
+                    found = d
+                    break
+    if found < 0:
+        raise ValueError("no target marking is reachable")
+    path: list[int] = []
+    for _ in range(ss.n_markings):
+        if found == 0:
+            break
+        path.append(int(via[found]))
+        found = int(parent[found])
+    return path[::-1]
+
+
+def marking_of(net: Net, ss: StateSpace, index: int) -> dict[int, int]:
+    """Row ``index`` as a {place: tokens} dict (non-zero entries only)."""
+    row = ss.markings[index]
+    return {int(p): int(row[p]) for p in np.flatnonzero(row)}
