@@ -14,6 +14,7 @@ proper-completion        when the mission's ok or fail place is marked, nothing 
                          (but the latched behaviours' state places)
 behaviours-off-at-end    at every final marking no behaviour is still on
 dof-exclusive            no two behaviours driving the same degree of freedom are on together
+actions-match-behaviours each firing that turns a behaviour on (off) sends enable (disable)
 no-dead-transitions      every transition can fire (a warning only)
 =======================  =====================================================================
 
@@ -55,6 +56,7 @@ class Verdict:
     arcs: int
     seconds: float
     results: list[Result] = field(default_factory=list)
+    dead_transitions: list[int] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -70,6 +72,7 @@ class Verdict:
             "verified": self.ok,
             "reachable_markings": self.markings,
             "reachability_arcs": self.arcs,
+            "dead_transitions": [self.net.transitions[t].name for t in self.dead_transitions],
             "seconds": round(self.seconds, 4),
             "properties": [{
                 "property": r.name, "holds": r.holds, "severity": r.severity,
@@ -145,10 +148,13 @@ def verify(net: Net, max_markings: int = 5_000_000) -> Verdict:
     results.append(_result(ss, "dof-exclusive", conflict,
                            "no two behaviours driving the same degree of freedom are on "
                            "together", f"two behaviours can drive {what} at once", how, net))
+    # every behaviour switched on or off by a firing is switched by its actions
+    results.append(_actions_match(net))
     # dead transitions (a warning)
     fired = np.zeros(len(net.transitions), bool)
     fired[np.unique(ss.transition)] = True
     never = np.flatnonzero(~fired)
+    verdict.dead_transitions = never.tolist()
     tasks_never = sorted({(net.transitions[t].origin.line, net.transitions[t].origin.text)
                           for t in never if net.transitions[t].origin is not None
                           and net.transitions[t].origin.kind == "task"
@@ -169,6 +175,33 @@ def verify(net: Net, max_markings: int = 5_000_000) -> Verdict:
     _describe_witnesses(verdict, ss)
     verdict.seconds = time.perf_counter() - start
     return verdict
+
+
+def _actions_match(net: Net) -> Result:
+    """A static check of each transition: a behaviour that a firing turns on (its output
+    places record it, its input places did not) must be enabled by the firing's actions, and
+    one it turns off must be disabled by them. This catches a forgotten stop action."""
+    for t, tr in enumerate(net.transitions):
+        before = {b for p, _ in tr.inputs for b in net.places[p].behaviours}
+        after = {b for p, _ in tr.outputs for b in net.places[p].behaviours}
+        enabled = {a.behaviour for a in tr.actions if a.kind == "enable"}
+        disabled = {a.behaviour for a in tr.actions if a.kind == "disable"}
+        problem = ""
+        if missing := sorted((after - before) - enabled):
+            problem = f"switches {', '.join(missing)} on without an enable action"
+        elif missing := sorted((before - after) - disabled):
+            problem = f"switches {', '.join(missing)} off without a disable action"
+        elif stray := sorted(enabled - after):
+            problem = (f"enables {', '.join(stray)} but no place records it on: it stays on "
+                       "unseen (declare the task's behaviour as latched, or disable it in stop)")
+        if problem:
+            where = f"{tr.origin.where()} {tr.origin.text}: " if tr.origin else ""
+            return Result("actions-match-behaviours", False, "error",
+                          f"{where}transition {tr.name} {problem}",
+                          "static check of every transition")
+    return Result("actions-match-behaviours", True, "error",
+                  "every firing that turns a behaviour on or off sends the action that does it",
+                  "static check of every transition")
 
 
 def _result(ss: StateSpace, name: str, bad: npt.NDArray[np.int64], good: str, bad_msg: str,

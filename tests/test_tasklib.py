@@ -1,0 +1,93 @@
+"""The task library is text: the shipped one, a user's own, and clear errors in either."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from mcl import tasklib
+from mcl.errors import MclError, Source
+from tests.support import cli, write
+
+ROV_TASKS = """
+// A user's vehicle: a sampling arm, added without writing Python.
+behaviour Arm drives x events closed, jammed;
+task TakeSample(depth: length) {
+    start:   enable Arm(depth = depth);
+    ok:      Arm.closed;
+    fail:    Arm.jammed;
+    timeout: 90 s -> fail;
+    stop:    disable Arm;
+}
+"""
+
+
+def test_the_shipped_library_declares_the_papers_nine_tasks_and_timers() -> None:
+    lib = tasklib.load()
+    assert {"Alarms", "StartLogs", "GoTo", "AchieveHeadDist", "KeepHeadDist",
+            "KeepHeadDistException", "StartCamera", "WallInspect", "Surface"} <= set(lib.tasks)
+    assert {"Wait", "Timeout"} <= set(lib.tasks)
+    assert lib.dofs() == {"GoTo": ("x", "y", "z", "yaw"), "WallInspection": ("y", "z"),
+                          "AchieveHeadDist": ("x", "yaw"), "Surface": ("z",),
+                          "StartCamera": (), "Alarms": (), "StartLogs": ()}
+    keep = {tuple(f.name for f in form.formals) for form in lib.tasks["KeepHeadDist"]}
+    assert keep == {("enable", "heading", "distance"), ("disable",)}
+    # tasks are not behaviours: the AchieveHeadDist behaviour serves three tasks
+    users = {name for name, forms in lib.tasks.items() for f in forms
+             if any(a.behaviour == "AchieveHeadDist" for a in f.start)
+             or any(e.startswith("AchieveHeadDist.") for e in f.ok + f.fail)}
+    assert users == {"AchieveHeadDist", "KeepHeadDist", "KeepHeadDistException"}
+
+
+def test_a_users_library_on_the_command_line(tmp_path: Path) -> None:
+    lib = write(tmp_path, ROV_TASKS, "rov.tasks")
+    mission = write(tmp_path, "MISSION {\n  TakeSample(3 m)\n}\n")
+    proc = cli("mclc", str(mission), "--tasks", str(lib))
+    assert proc.returncode == 0, proc.stderr
+    assert "verified" in proc.stdout
+    # the user's library replaces the default vehicle library (timers stay)
+    other = write(tmp_path, "MISSION {\n  Surface()\n}\n", "other.mcl")
+    proc = cli("mclc", str(other), "--tasks", str(lib))
+    assert proc.returncode == 2 and "unknown task 'Surface'" in proc.stderr
+
+
+def test_uses_in_the_mission_file(tmp_path: Path) -> None:
+    write(tmp_path, ROV_TASKS, "rov.tasks")
+    mission = write(tmp_path, 'USES "ictineu";\nUSES "rov.tasks";\n'
+                    "MISSION {\n  TakeSample(3 m);\n  Surface()\n}\n")
+    proc = cli("mclc", str(mission))
+    assert proc.returncode == 0, proc.stderr
+
+
+@pytest.mark.parametrize("text,line,col,words", [
+    ("task T() { start: enable Nope; }", 1, 19, "unknown behaviour 'Nope'"),
+    ("behaviour B events e;\ntask T() { ok: B.f; }", 2, 6, "behaviour B has no event 'f'"),
+    ("task T(x: banana) { }", 1, 11, "unknown kind 'banana'"),
+    ("task T(x) { }", 1, 8, "parameter 'x' has no kind"),
+    ("behaviour B;\ntask T() { start: enable B; latch: B; timeout: 3 s -> ok; }", 2, 6,
+     "must end at once"),
+    ("task T() { timeout: 3 s -> maybe; }", 1, 28, "'ok' or 'fail'"),
+    ("task T() { start: switch B; }", 1, 19, "unknown action 'switch'"),
+    ("task T( { }", 1, 9, "unexpected"),
+    ("behaviour B;\nbehaviour B;", 2, 11, "declared twice"),
+    ("task T() { }\ntask T() { }", 2, 6, "same as the one at"),
+    ("behaviour B;\ntask T(p: point) { start: enable B(v = q.x); }", 2, 40,
+     "'q' is not a parameter"),
+])
+def test_library_errors_name_the_place(text: str, line: int, col: int, words: str) -> None:
+    with pytest.raises(MclError) as info:
+        tasklib.load_sources([Source("lib.tasks", text)])
+    d = info.value.errors[0]
+    assert d.span is not None
+    assert (d.span.file, d.span.line, d.span.col) == ("lib.tasks", line, col), d.format()
+    assert words in d.message + d.hint, d.format()
+
+
+def test_a_broken_library_on_the_command_line_exits_2(tmp_path: Path) -> None:
+    lib = write(tmp_path, "task T() { start: enable Nope; }\n", "bad.tasks")
+    mission = write(tmp_path, "MISSION {\n  T()\n}\n")
+    proc = cli("mclc", str(mission), "--tasks", str(lib))
+    assert proc.returncode == 2
+    assert f"{lib}:1:19: error: task T: unknown behaviour 'Nope'" in proc.stderr
+    assert "Traceback" not in proc.stderr
