@@ -40,8 +40,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--pnml", metavar="FILE", help="write the net as PNML (ISO/IEC 15909-2)")
     p.add_argument("--net-json", metavar="FILE", help="write the whole net as JSON")
     p.add_argument("--json", action="store_true", help="print a JSON report (= --format json)")
-    p.add_argument("--format", choices=["text", "json"], default=None,
-                   help="report format on standard output (default text)")
+    p.add_argument("--format", choices=["text", "json", "junit", "sarif", "github"],
+                   default=None, help="report format on standard output (default text): "
+                   "json, JUnit XML, SARIF 2.1.0, or GitHub Actions annotations")
     p.add_argument("--no-verify", action="store_true", help="compile only; do not verify")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     return p
@@ -62,8 +63,7 @@ def main(argv: list[str] | None = None) -> int:
             status, report = _one(path, args, fmt)
         except MclError as exc:
             status, report = EXIT_INVALID, _invalid(path, exc.diagnostics)
-            if fmt == "text":
-                print(exc.format(), file=sys.stderr)
+            print(exc.format(), file=sys.stderr)
         except Exception as exc:  # a bug of ours: say so plainly, never a bare traceback
             if args.debug:
                 traceback.print_exc()
@@ -76,6 +76,10 @@ def main(argv: list[str] | None = None) -> int:
         worst = max(worst, status)
     if fmt == "json":
         print(json.dumps(reports[0] if len(reports) == 1 else reports, indent=2))
+    elif fmt in ("junit", "sarif", "github"):
+        from . import formats
+
+        print(getattr(formats, fmt)(reports))
     sys.stdout.flush()
     return worst
 
