@@ -107,7 +107,7 @@ def _lark() -> Lark:
                                   start="library")
 
 
-SHIPPED = ("ictineu",)
+SHIPPED = ("ictineu", "generic")
 
 
 def is_shipped(name: str) -> bool:

@@ -285,8 +285,12 @@ def format_text(report: dict[str, Any]) -> str:
     """The verification part of ``mclc``'s text output."""
     lines = []
     head = "verified" if report["verified"] else "NOT verified"
-    lines.append(f"  {head}: {report['reachable_markings']} reachable markings, "
-                 f"{report['reachability_arcs']} arcs, {report['seconds']:.3f} s")
+    if report["reachable_markings"]:
+        lines.append(f"  {head}: {report['reachable_markings']} reachable markings, "
+                     f"{report['reachability_arcs']} arcs, {report['seconds']:.3f} s")
+    else:
+        lines.append(f"  {head} by construction and static analysis (the state space is "
+                     f"not enumerated), {report['seconds']:.3f} s")
     for r in report["properties"]:
         mark = "ok  " if r["holds"] else ("FAIL" if r["severity"] == "error" else "warn")
         lines.append(f"  [{mark}] {r['property']}: {r['message']}")
@@ -301,6 +305,9 @@ def format_text(report: dict[str, Any]) -> str:
                              f"{extra}{acts}")
             if r.get("marking"):
                 lines.append(f"         reaching the marking {r['marking']}")
-    if report["properties"]:
-        lines.append(f"  method: {report['properties'][0]['method']}")
+    methods = sorted({r["method"] for r in report["properties"]})
+    for m in methods:
+        names = [r["property"] for r in report["properties"] if r["method"] == m]
+        lines.append(f"  method for {', '.join(names)}: {m}" if len(methods) > 1
+                     else f"  method: {m}")
     return "\n".join(lines)

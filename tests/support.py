@@ -32,15 +32,5 @@ def write(tmp_path: Path, text: str, name: str = "m.mcl") -> Path:
     return path
 
 
-GENERIC_TASKS = """
-// Generic blocks for testing templates: each may end ok, end fail, or be aborted at any time.
-behaviour Probe events ok, fail;
-behaviour Lamp;
-task A() { ok: Probe.ok; fail: Probe.fail; }
-task B() { ok: Probe.ok; fail: Probe.fail; }
-task C() { ok: Probe.ok; fail: Probe.fail; }
-task D() { ok: Probe.ok; fail: Probe.fail; }
-task Now() { }
-task Lamp(enable) { start: enable Lamp; latch: Lamp; }
-task Lamp(disable) { start: disable Lamp; unlatch: Lamp; }
-"""
+# Generic blocks for testing templates, shipped with the package (mcl/tasks/generic.tasks).
+GENERIC_TASKS = (REPO / "mcl" / "tasks" / "generic.tasks").read_text("utf-8")

@@ -18,6 +18,7 @@ from ..api import Compiled, compile_file, parse_params
 from ..errors import Diagnostic, MclError
 
 EXIT_OK, EXIT_PROPERTY, EXIT_INVALID, EXIT_INTERNAL = 0, 1, 2, 3
+AUTO_LIMIT = 300_000  # estimated markings above which --method auto goes structural
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -44,6 +45,12 @@ def _parser() -> argparse.ArgumentParser:
                    default=None, help="report format on standard output (default text): "
                    "json, JUnit XML, SARIF 2.1.0, or GitHub Actions annotations")
     p.add_argument("--no-verify", action="store_true", help="compile only; do not verify")
+    p.add_argument("--method", choices=["auto", "explicit", "structural"], default="auto",
+                   help="explicit: enumerate every reachable marking (exact, with firing "
+                        "sequences); structural: templates verified with generic children plus "
+                        "static analysis (for missions too large to enumerate); auto (default): "
+                        f"explicit when the estimated state space is under {AUTO_LIMIT:,} "
+                        "markings")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     return p
 
@@ -107,15 +114,24 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, 
     report = _summary(compiled)
     status = EXIT_OK
     if not args.no_verify:
-        from petri.verify import verify
-
-        verdict = verify(compiled.net)
+        verdict = _verify(compiled, args.method)
         report["verification"] = verdict.to_json()
         status = EXIT_OK if verdict.ok else EXIT_PROPERTY
         report["status"] = "verified" if verdict.ok else "property-fails"
     if fmt == "text":
         _print_text(compiled, report, args)
     return status, report
+
+
+def _verify(compiled: Compiled, method: str) -> Any:
+    from petri.verify import verify
+
+    from ..structural import analyse, mission_estimate
+
+    if method == "structural" or (
+            method == "auto" and mission_estimate(compiled.checked) > AUTO_LIMIT):
+        return analyse(compiled.checked)
+    return verify(compiled.net)
 
 
 def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:
