@@ -89,7 +89,14 @@ class _Checker:
                        code="unknown-task")
             return
         positional = [a for a in call.args if a.name is None]
-        named = {a.name: a for a in call.args if a.name is not None}
+        named: dict[str | None, ast.Arg] = {}
+        for a in call.args:
+            if a.name is not None:
+                if a.name in named:
+                    self.error(f"argument '{a.name}' is given twice", a.span,
+                               "give each argument once", code="duplicate-argument")
+                    return
+                named[a.name] = a
         for i, a in enumerate(call.args):
             if a.name is None and any(b.name is not None for b in call.args[:i]):
                 self.error("a positional argument after a named one", a.span,
@@ -102,6 +109,11 @@ class _Checker:
                        f"{call.name} is called as: {signatures}", code="bad-arguments")
             return
         form = candidates[0]
+        for formal, _ in zip(form.formals, positional):
+            if formal.name in named:
+                self.error(f"argument '{formal.name}' is given twice", named[formal.name].span,
+                           "it is already given by position", code="duplicate-argument")
+                return
         args: dict[str, ast.Value] = {}
         for formal, arg in zip(form.formals, positional):
             if formal.kind is not None:
@@ -130,6 +142,32 @@ class _Checker:
         self.checked.calls[id(call)] = Resolved(form, args, timeout)
 
     # -- parameters -------------------------------------------------------------------------
+    def _cycles(self, declared: dict[str, ast.Param]) -> None:
+        """A parameter whose value refers, directly or not, to itself has no value."""
+        params = self.checked.params
+        for start in sorted(params):
+            if start not in params:  # already dropped as part of an earlier cycle
+                continue
+            stack = [(start, iter(_refs(params[start])))]
+            seen = {start}
+            while stack:  # depth first over references; each parameter is entered once
+                nxt = next(stack[-1][1], None)
+                if nxt is None:
+                    stack.pop()
+                elif nxt == start:
+                    chain = " -> ".join([*(n for n, _ in stack), start])
+                    span = declared[start].span if start in declared else None
+                    self.error(f"parameter '{start}' refers to itself ({chain})",
+                               span or self.checked.mission.span,
+                               "give it a value that does not depend on itself",
+                               code="param-cycle")
+                    for name, _ in stack:
+                        params.pop(name, None)
+                    break
+                elif nxt in params and nxt not in seen:
+                    seen.add(nxt)
+                    stack.append((nxt, iter(_refs(params[nxt]))))
+
     def parameters(self, overrides: dict[str, tuple[ast.Value, Source]],
                    require_values: bool) -> None:
         kinds = self.checked.param_kinds
@@ -143,11 +181,20 @@ class _Checker:
             declared[p.name] = p
             if p.name in ast.WORDS:
                 self.error(f"'{p.name}' is a reserved word", p.span, code="reserved-word")
+            if p.value is not None:
+                params[p.name] = p.value
+        # A parameter whose value names another passes its kind on (PARAM b = a;).
+        for _ in range(len(params) + 1):
+            before = dict(kinds)
+            for name, value in params.items():
+                if name in kinds and name in declared:
+                    check(value, kinds[name], kinds)
+            if kinds == before:
+                break
+        for p in declared.values():
             if p.name not in kinds:
                 self.warn(f"parameter '{p.name}' is declared but never used", p.span,
                           code="unused-param")
-            if p.value is not None:
-                params[p.name] = p.value
         for name, (value, origin) in overrides.items():
             if name not in kinds:
                 hint = suggest(name, sorted(kinds)) or (
@@ -156,6 +203,7 @@ class _Checker:
                            code="unknown-param", source=origin)
                 continue
             params[name] = value
+        self._cycles(declared)
         # Each value must suit the way the parameter is used.
         for name, value in list(params.items()):
             if name not in kinds:
@@ -176,6 +224,15 @@ class _Checker:
                     self.error(text, span, hint, code="unset-param")
                 else:
                     self.warn(text, span, hint, code="unset-param")
+
+
+def _refs(value: ast.Value) -> list[str]:
+    match value:
+        case ast.Ref(name=n) if n not in ast.WORDS:
+            return [n]
+        case ast.ListValue(items=items) | ast.Point(items=items):
+            return [r for i in items for r in _refs(i)]
+    return []
 
 
 def _fits(form: TaskForm, positional: list[ast.Arg], named: dict[str | None, ast.Arg]) -> bool:

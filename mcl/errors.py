@@ -59,7 +59,8 @@ class Source:
     lines: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        self.lines = self.text.splitlines()
+        # Lines as the parser counts them: only '\n' ends a line (not '\r', '\f', U+2028...).
+        self.lines = [line.removesuffix("\r") for line in self.text.split("\n")]
 
     def line(self, number: int) -> str:
         return self.lines[number - 1] if 0 < number <= len(self.lines) else ""

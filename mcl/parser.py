@@ -8,6 +8,7 @@ wrong in the same way); the same table is exercised by the tests.
 from __future__ import annotations
 
 import difflib
+import math
 from functools import lru_cache
 
 from lark import Lark, Token, Tree, UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
@@ -146,6 +147,11 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
                          f"not {previous}", _tok_span(source, previous),
                          f"replace '{previous}' with '{previous.upper()}'",
                          code="lower-case-keyword")
+    if (isinstance(token, Token) and token.type == "NAME" and token.upper() in KEYWORDS
+            and str(token) != token.upper()):
+        return error(source, f"keywords are upper case: write {token.upper()}, not {token}",
+                     _tok_span(source, token), f"replace '{token}' with '{token.upper()}'",
+                     code="lower-case-keyword")
     code = None
     if exc.state is not None:
         try:
@@ -327,7 +333,12 @@ class _Builder:
         match node.data:
             case "number":
                 num, unit = node.children
-                return ast.Number(float(str(num)), str(unit) if unit else None, span)
+                value = float(str(num))
+                if not math.isfinite(value):
+                    raise error(self.source, f"number {num} is out of range", span,
+                                "numbers must be finite (below about 1.8e308)",
+                                code="number-out-of-range")
+                return ast.Number(value, str(unit) if unit else None, span)
             case "ref":
                 return ast.Ref(str(node.children[0]), span)
             case "list":
