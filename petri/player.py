@@ -1,0 +1,240 @@
+"""The real-time Petri-net player (paper 002 §3.2): it runs the very net that was verified.
+
+It holds the marking, fires transitions, sends their actions, and waits for events and
+timers. The rules, in order of precedence:
+
+1. *Immediate* transitions (no event, no timer) fire as soon as they are enabled, lowest index
+   first, until none is enabled. A firing sends its actions in the same step, so a task's stop
+   actions always go out before its block reports back (MCL.md's abort rule).
+2. A *timed* transition fires when it has been enabled without interruption for its time.
+3. An *event* fires every transition enabled and waiting for it, lowest index first, each at
+   most once (one that an earlier firing of the same event disabled does not fire). An event
+   nobody waits for is logged and ignored; ``Link.lost`` that no block waits for aborts the
+   mission (the ``Mission.abort`` transition).
+
+Time comes from outside (``now`` arguments): simulated time and wall time run the same code.
+The same events at the same times give the same firings. Everything the player does is
+reported to its observers as records (see :class:`Record`).
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from .net import Action, Net
+
+MAX_IMMEDIATE_FIRINGS = 1_000_000  # per step: a net that loops without events is a bug
+MISSION_ABORT = "Mission.abort"
+LINK_LOST = "Link.lost"
+
+
+@dataclass(frozen=True)
+class Record:
+    """One thing that happened: kind is "fire", "action", "event", "ignored", "status",
+    "note". ``data`` holds the details (JSON-ready)."""
+
+    t: float
+    kind: str
+    data: dict[str, Any]
+
+
+@dataclass
+class Player:
+    net: Net
+    params: dict[str, Any] = field(default_factory=dict)  # values of unresolved parameters
+    observers: list[Callable[[Record], None]] = field(default_factory=list)
+    marking: list[int] = field(init=False)
+    enabled_since: dict[int, float] = field(init=False, default_factory=dict)
+    behaviours_on: dict[str, str] = field(init=False, default_factory=dict)  # -> task
+    status: str = field(init=False, default="ready")  # ready | running | ok | fail
+    fired: int = field(init=False, default=0)
+
+    def __post_init__(self) -> None:
+        self.marking = [0] * len(self.net.places)
+        for p, n in self.net.initial.items():
+            self.marking[p] = n
+        self._timed = [i for i, t in enumerate(self.net.transitions) if t.timer is not None]
+        self._waiting: dict[str, list[int]] = {}
+        for i, t in enumerate(self.net.transitions):
+            if t.event is not None:
+                self._waiting.setdefault(t.event, []).append(i)
+        # transitions to re-examine when a place changes
+        self._readers: list[list[int]] = [[] for _ in self.net.places]
+        for i, t in enumerate(self.net.transitions):
+            for p, _ in t.inputs:
+                self._readers[p].append(i)
+        self._immediate = [t.immediate for t in self.net.transitions]
+        self._candidates = [i for i, im in enumerate(self._immediate) if im]  # a heap
+        self._queued = set(self._candidates)
+        ends = [n for n in ("MISSION.ok", "MISSION.fail") if n in self.net._index]
+        self._ends = {self.net.place(n): n.split(".")[1] for n in ends}
+
+    # -- the three ways a transition fires -------------------------------------------------
+    def start(self, now: float) -> None:
+        self.status = "running"
+        self._emit(now, "status", {"status": "running"})
+        self._arm_timers(now)
+        self.settle(now)
+
+    def enabled(self, t: int) -> bool:
+        return all(self.marking[p] >= w for p, w in self.net.transitions[t].inputs)
+
+    def settle(self, now: float) -> None:
+        """Fire due timers and immediate transitions until nothing more can fire now."""
+        for _ in range(MAX_IMMEDIATE_FIRINGS):
+            t = self._next_ready(now)
+            if t is None:
+                break
+            self._fire(t, now, "immediate" if self._immediate[t] else "timer")
+        else:
+            raise RuntimeError("more than a million firings without an event: the net loops")
+        self._check_end(now)
+
+    def _next_ready(self, now: float) -> int | None:
+        # Only a transition that reads a place that gained a token can have become enabled:
+        # those are the candidates, examined lowest index first.
+        while self._candidates:
+            t = self._candidates[0]
+            if self.enabled(t):
+                return t
+            heapq.heappop(self._candidates)
+            self._queued.discard(t)
+        for t in self._timed:
+            since = self.enabled_since.get(t)
+            if since is not None and since + self._seconds(t) <= now + 1e-9:
+                return t
+        return None
+
+    def handle_event(self, event: str, now: float, data: dict[str, Any] | None = None) -> int:
+        """Fire what waits for ``event``; returns how many transitions fired."""
+        waiting = [t for t in self._waiting.get(event, []) if self.enabled(t)]
+        if not waiting and event == LINK_LOST:
+            waiting = [t for t in self._waiting.get(MISSION_ABORT, []) if self.enabled(t)]
+            if waiting:
+                self._emit(now, "note", {"note": "Link.lost and no block catches it: the "
+                                                 "mission is aborted"})
+        if not waiting:
+            self._emit(now, "ignored", {"event": event, "reason": "nobody waits for it"})
+            return 0
+        self._emit(now, "event", {"event": event, "data": data or {}})
+        count = 0
+        for t in waiting:
+            if self.enabled(t):
+                self._fire(t, now, event)
+                count += 1
+        self.settle(now)
+        return count
+
+    # -- time ---------------------------------------------------------------------------------
+    def next_deadline(self) -> float | None:
+        """When the earliest armed timer falls due (None if no timer is armed)."""
+        deadlines = [since + self._seconds(t) for t, since in self.enabled_since.items()]
+        return min(deadlines) if deadlines else None
+
+    def _seconds(self, t: int) -> float:
+        timer = self.net.transitions[t].timer
+        if isinstance(timer, str):
+            value = self.params.get(timer)
+            if not isinstance(value, (int, float)):
+                raise ValueError(f"timer parameter {timer!r} has no value")
+            return float(value)
+        assert timer is not None
+        return float(timer)
+
+    def _arm_timers(self, now: float) -> None:
+        for t in self._timed:
+            if self.enabled(t):
+                self.enabled_since.setdefault(t, now)
+            else:
+                self.enabled_since.pop(t, None)
+
+    # -- firing ---------------------------------------------------------------------------
+    def _fire(self, t: int, now: float, cause: str) -> None:
+        tr = self.net.transitions[t]
+        for p, w in tr.inputs:
+            self.marking[p] -= w
+        for p, w in tr.outputs:
+            self.marking[p] += w
+        self.fired += 1
+        task = _task_of(tr.name)
+        self._emit(now, "fire", {"transition": tr.name, "index": t, "cause": cause,
+                                 "label": tr.label, "construct": tr.origin.text if tr.origin
+                                 else "", "line": tr.origin.line if tr.origin else None})
+        for action in tr.actions:
+            self._send(action, task, now)
+        for p, _ in tr.outputs:
+            for r in self._readers[p]:
+                if self._immediate[r] and r not in self._queued:
+                    heapq.heappush(self._candidates, r)
+                    self._queued.add(r)
+        self._rearm_after(tr.inputs + tr.outputs, now)
+
+    def _rearm_after(self, arcs: tuple[tuple[int, int], ...], now: float) -> None:
+        touched = {t for p, _ in arcs for t in self._readers[p]
+                   if self.net.transitions[t].timer is not None}
+        for t in touched:
+            if self.enabled(t):
+                self.enabled_since.setdefault(t, now)
+            else:
+                self.enabled_since.pop(t, None)
+
+    def _send(self, action: Action, task: str, now: float) -> None:
+        params = {k: self._resolve(v) for k, v in action.params}
+        if action.kind == "enable":
+            self.behaviours_on[action.behaviour] = task
+        elif action.kind == "disable":
+            self.behaviours_on.pop(action.behaviour, None)
+        self._emit(now, "action", {"action": action.kind, "behaviour": action.behaviour,
+                                   "params": params, "task": task})
+
+    def _resolve(self, value: Any) -> Any:
+        if isinstance(value, dict) and "param" in value:
+            v = self.params.get(value["param"])
+            if v is None:
+                raise ValueError(f"parameter {value['param']!r} has no value")
+            field_ = value.get("field")
+            if field_ is not None:
+                index = {"x": 0, "y": 1, "z": 2, "yaw": 3}[field_]
+                return v[index] if isinstance(v, list) and index < len(v) else None
+            return v
+        return value
+
+    def _check_end(self, now: float) -> None:
+        if self.status != "running":
+            return
+        for p, status in self._ends.items():
+            if self.marking[p] > 0:
+                self.status = status
+                if self.behaviours_on:  # the last line of defence (MCL.md)
+                    left = sorted(self.behaviours_on)
+                    self._emit(now, "note", {"note": "switching off behaviours left on at the "
+                                                     f"end: {', '.join(left)}"})
+                    for b in left:
+                        self._send(Action("disable", b), "MISSION", now)
+                self._emit(now, "status", {"status": status})
+                return
+
+    def _emit(self, now: float, kind: str, data: dict[str, Any]) -> None:
+        record = Record(now, kind, data)
+        for observe in self.observers:
+            observe(record)
+
+    # -- for observers ----------------------------------------------------------------------
+    @property
+    def finished(self) -> bool:
+        return self.status in ("ok", "fail")
+
+    def snapshot(self) -> dict[str, Any]:
+        """The current marking, running tasks and enabled behaviours (for monitors)."""
+        marked = [self.net.places[p].name for p, n in enumerate(self.marking) if n]
+        running = sorted({_task_of(n) for n in marked if n.endswith(".run")})
+        return {"status": self.status, "marking": marked, "running_tasks": running,
+                "behaviours_on": sorted(self.behaviours_on), "fired": self.fired}
+
+
+def _task_of(name: str) -> str:
+    """'GoTo@12:9.start' -> 'GoTo@12:9' (the block a transition or place belongs to)."""
+    return name.split(".", 1)[0]

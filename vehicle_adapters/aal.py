@@ -1,0 +1,129 @@
+"""The architecture abstraction layer (AAL.md): actions out, events in, as versioned JSON.
+
+An action is an order from the player to the vehicle: enable, disable or configure one
+behaviour. An event is a fact from the vehicle (``GoTo.reached``). Both are small JSON objects
+with a schema version ``v``, a per-sender sequence number ``seq`` and the sender's clock ``t``.
+Every receiver validates what arrives; an invalid message raises :class:`InvalidMessage`,
+which receivers log and drop — it never crashes them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+VERSION = 1
+ACTION_KINDS = ("enable", "disable", "configure")
+MAX_MESSAGE = 64 * 1024
+
+
+class InvalidMessage(ValueError):
+    """A message that does not follow the schema; says which field is wrong."""
+
+
+@dataclass(frozen=True)
+class ActionMessage:
+    seq: int
+    t: float
+    mission: str
+    task: str  # e.g. "GoTo@12:9" — the task call that sends it
+    kind: str
+    behaviour: str
+    params: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> str:
+        return json.dumps({"v": VERSION, "seq": self.seq, "t": self.t, "mission": self.mission,
+                           "task": self.task, "kind": self.kind, "behaviour": self.behaviour,
+                           "params": self.params}, separators=(",", ":"))
+
+    @staticmethod
+    def from_json(text: str | bytes) -> ActionMessage:
+        d = _load(text)
+        _require(d, {"seq": int, "t": (int, float), "mission": str, "task": str, "kind": str,
+                     "behaviour": str, "params": dict})
+        if d["kind"] not in ACTION_KINDS:
+            raise InvalidMessage(f"action kind {d['kind']!r} is not one of {ACTION_KINDS}")
+        return ActionMessage(d["seq"], float(d["t"]), d["mission"], d["task"], d["kind"],
+                             d["behaviour"], d["params"])
+
+
+@dataclass(frozen=True)
+class EventMessage:
+    seq: int
+    t: float
+    source: str  # the behaviour (or "Link", "Mission") that raises it
+    name: str
+    data: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def event(self) -> str:
+        """The name used in task declarations: ``Source.name``."""
+        return f"{self.source}.{self.name}"
+
+    def to_json(self) -> str:
+        return json.dumps({"v": VERSION, "seq": self.seq, "t": self.t, "source": self.source,
+                           "name": self.name, "data": self.data}, separators=(",", ":"))
+
+    @staticmethod
+    def from_json(text: str | bytes) -> EventMessage:
+        d = _load(text)
+        _require(d, {"seq": int, "t": (int, float), "source": str, "name": str, "data": dict})
+        for key in ("source", "name"):
+            if not d[key].isidentifier():
+                raise InvalidMessage(f"event {key} {d[key]!r} is not a name")
+        return EventMessage(d["seq"], float(d["t"]), d["source"], d["name"], d["data"])
+
+
+def _load(text: str | bytes) -> dict[str, Any]:
+    if len(text) > MAX_MESSAGE:
+        raise InvalidMessage(f"message of {len(text)} bytes is larger than {MAX_MESSAGE}")
+    try:
+        d = json.loads(text)
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InvalidMessage(f"not JSON: {exc}") from None
+    if not isinstance(d, dict):
+        raise InvalidMessage("not a JSON object")
+    if d.get("v") != VERSION:
+        raise InvalidMessage(f"schema version {d.get('v')!r}, expected {VERSION}")
+    return d
+
+
+def _require(d: dict[str, Any], fields: dict[str, type | tuple[type, ...]]) -> None:
+    for key, types in fields.items():
+        if key not in d:
+            raise InvalidMessage(f"field {key!r} is missing")
+        value = d[key]
+        if isinstance(value, bool) or not isinstance(value, types):
+            raise InvalidMessage(f"field {key!r} has the wrong type ({type(value).__name__})")
+        if isinstance(value, float) and not math.isfinite(value):
+            raise InvalidMessage(f"field {key!r} is not finite")
+    if d["seq"] < 0:
+        raise InvalidMessage("field 'seq' is negative")
+
+
+class Vehicle(Protocol):
+    """What the player needs from any vehicle adapter (a context manager).
+
+    ``send`` delivers one action; ``receive(until)`` returns the events that arrived, waiting
+    at most until the clock reads ``until`` (never forever); ``now`` is the clock the player
+    runs on (the vehicle's simulated clock, or wall time)."""
+
+    def __enter__(self) -> Vehicle: ...
+    def __exit__(self, *exc: object) -> None: ...
+    def send(self, action: ActionMessage) -> None: ...
+    def receive(self, until: float) -> list[EventMessage]: ...
+    def now(self) -> float: ...
+    def idle(self) -> bool:
+        """True when nothing will ever arrive unless an action is sent (simulated vehicles:
+        no event scheduled). Real vehicles answer False."""
+        ...
+
+
+def sequence() -> Iterator[int]:
+    n = 0
+    while True:
+        yield n
+        n += 1
