@@ -22,8 +22,15 @@ demo: $(STAMP)
 	$(BIN)/mclc missions/dam_inspection.mcl --dot out/dam_inspection.dot \
 	    --dot-tasks out/dam_inspection.tasks.dot --pnml out/dam_inspection.pnml
 	@echo
-	@echo "Every mission in missions/:"
-	$(BIN)/mclc missions/*.mcl --format text | grep -E '^(missions|  (verified|NOT))' || true
+	@echo "== The dam mission on a scripted vehicle, with a leak 10 minutes in:"
+	$(BIN)/mcl run missions/dam_inspection.mcl --vehicle script:missions/vehicles/dam_leak.toml \
+	    --log out/dam_leak.jsonl
+	$(BIN)/mcl replay out/dam_leak.jsonl missions/dam_inspection.mcl
+	@echo
+	@echo "== Every mission in missions/:"
+	$(BIN)/mclc missions/*.mcl | grep -E '^(missions|  (verified|NOT))'
+	@echo
+	@echo "Nets written to out/ (Graphviz: dot -Tsvg out/dam_inspection.tasks.dot -o dam.svg)"
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
@@ -34,6 +41,8 @@ check: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/bench_verifier.py
+	$(BIN)/python bench/bench_missions.py
+	$(BIN)/python bench/bench_player.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .hypothesis
