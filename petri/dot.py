@@ -1,11 +1,18 @@
 """Graphviz views of a net.
 
 ``full``: every place (circle, a dot when marked) and transition (box, with its event, timer
-and actions). ``tasks``: like the paper's Figure 5, each task collapsed into one grey node,
-the control structures' places and transitions kept, so the mission's shape shows at a glance.
+and actions). ``tasks``: like the paper's Figure 5, each task collapsed into one grey node and
+only the normal flow of the control structures kept (the abort machinery — stopping children,
+absorbing late aborts, switching latches off — is left out), so the mission's shape shows at a
+glance.
 """
 
 from __future__ import annotations
+
+import re
+
+# Transitions that belong to the abort machinery, left out of the task view.
+_ABORT = re.compile(r"\.(abort|stop|late_|stopped|cleanup|off\.|keep\.)|abort_|\.from\.")
 
 from .net import Net
 
@@ -35,7 +42,9 @@ def to_dot(net: Net, view: str = "full") -> str:
         if key is not None:
             node_of_place[p] = key
             assert place.origin is not None
-            tasks.setdefault(key, f"{place.origin.text}\\nline {place.origin.line}")
+            text = place.origin.text if len(place.origin.text) <= 32 else \
+                place.origin.text[:29] + "..."
+            tasks.setdefault(key, f"{text}\\nline {place.origin.line}")
             continue
         node_of_place[p] = f"p{p}"
         marked = net.initial.get(p, 0)
@@ -45,7 +54,17 @@ def to_dot(net: Net, view: str = "full") -> str:
     for key, label in tasks.items():
         lines.append(f'  {_q(key)} [shape=circle, style=filled, fillcolor="#bbbbbb", '
                      f"label={_q(label)}, fontsize=10];")
+    shown = [not (collapse and _ABORT.search(tr.name) and _task_key(net, tr.origin) is None)
+             for tr in net.transitions]
+    used = {p for t, tr in enumerate(net.transitions) if shown[t]
+            for p, _ in tr.inputs + tr.outputs}
+    if collapse:  # drop the places only the abort machinery touches
+        keep = [f"  {n} " for p, n in node_of_place.items() if p in used]
+        lines = [ln for ln in lines if not ln.startswith("  p") or any(
+            ln.startswith(k) for k in keep)]
     for t, tr in enumerate(net.transitions):
+        if not shown[t]:
+            continue
         key = _task_key(net, tr.origin) if collapse else None
         if key is not None:
             node_of_transition[t] = key
@@ -60,11 +79,15 @@ def to_dot(net: Net, view: str = "full") -> str:
         lines.append(f"  t{t} [shape=box, height=0.2, fontsize=8, label={_q(chr(10).join(details))}];")
     edges: set[tuple[str, str, int]] = set()
     for t, tr in enumerate(net.transitions):
+        if not shown[t]:
+            continue
         tn = node_of_transition[t]
         for p, w in tr.inputs:
-            edges.add((node_of_place[p], tn, w))
+            if not (collapse and _ABORT.search(net.places[p].name)):
+                edges.add((node_of_place[p], tn, w))
         for p, w in tr.outputs:
-            edges.add((tn, node_of_place[p], w))
+            if not (collapse and _ABORT.search(net.places[p].name)):
+                edges.add((tn, node_of_place[p], w))
     for a, b, w in sorted(edges):
         if a == b:
             continue
