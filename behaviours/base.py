@@ -1,0 +1,102 @@
+"""What every behaviour shares: one lifecycle, what it perceives, what it answers.
+
+A behaviour is enabled (``initialise`` with the action's parameters), ticked (``update``
+with the latest perception, returning its response — the velocities it wants on the degrees
+of freedom it drives — and the events it raises), and disabled (``terminate``). The vehicle
+loop owns the tick; the coordinator merges the responses of the enabled behaviours.
+
+Degrees of freedom: ``x`` surge, ``y`` sway, ``z`` heave, ``yaw`` yaw rate (body frame; facing
+the wall with yaw 0, surge moves towards the wall and sway along it, as in paper 002 §3.1).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+DOFS = ("x", "y", "z", "yaw")
+
+
+@dataclass(frozen=True)
+class Perception:
+    """The vehicle's estimate of itself and its surroundings at time t (world frame, z down)."""
+
+    t: float
+    x: float
+    y: float
+    z: float
+    psi: float  # heading, rad
+    u: float = 0.0
+    v: float = 0.0
+    w: float = 0.0
+    r: float = 0.0
+    wall_distance: float | None = None  # m, from the wall tracker; None when not tracked
+    wall_heading: float | None = None  # rad, heading relative to the wall normal
+    leak: bool = False
+    temperature: float = 20.0  # deg C inside the pressure vessels
+    pressure: float = 1.0  # bar inside the pressure vessels
+
+
+@dataclass
+class Response:
+    """Velocity demands on the degrees of freedom a behaviour drives (m/s, rad/s)."""
+
+    demands: dict[str, float] = field(default_factory=dict)
+
+
+class Behaviour:
+    name: ClassVar[str] = ""
+    drives: ClassVar[tuple[str, ...]] = ()
+    events: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self) -> None:
+        self.active = False
+        self.params: dict[str, Any] = {}
+        self.raised: list[tuple[str, dict[str, Any]]] = []
+
+    # -- the lifecycle ------------------------------------------------------------------------
+    def initialise(self, params: dict[str, Any], t: float) -> None:
+        """Enable (again): take the action's parameters."""
+        self.active = True
+        self.params = dict(params)
+        self.raised = []
+        self.on_initialise(t)
+
+    def configure(self, params: dict[str, Any], t: float) -> None:
+        self.params.update(params)
+
+    def update(self, p: Perception) -> Response:
+        """One tick: the response; events go to ``raised`` (collected by the vehicle loop)."""
+        return self.on_update(p) if self.active else Response()
+
+    def terminate(self, t: float) -> None:
+        self.active = False
+
+    # -- for subclasses -----------------------------------------------------------------------
+    def on_initialise(self, t: float) -> None:
+        pass
+
+    def on_update(self, p: Perception) -> Response:
+        return Response()
+
+    def raise_event(self, name: str, **data: Any) -> None:
+        """Raise an event once per enable (a behaviour says 'reached' once)."""
+        if name not in [n for n, _ in self.raised]:
+            self.raised.append((name, data))
+
+    def param(self, key: str, default: float) -> float:
+        value = self.params.get(key, default)
+        return float(value) if isinstance(value, (int, float)) else default
+
+
+def wrap(angle: float) -> float:
+    """An angle in (-pi, pi]."""
+    a = math.fmod(angle + math.pi, 2 * math.pi)
+    if a <= 0:
+        a += 2 * math.pi
+    return a - math.pi
+
+
+def clamp(value: float, limit: float) -> float:
+    return max(-limit, min(limit, value))
