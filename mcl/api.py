@@ -55,8 +55,24 @@ def parse_params(assignments: list[str], files: list[str] | None = None
             raise MclError(origin.diagnostic(
                 "error", f"expected --param NAME=VALUE, got {item!r}", origin.span(1, 1),
                 "e.g. --param h=90deg or --param 'initialPos=(0, -8, 2, 90)'", "bad-param"))
-        out[name.strip()] = (parser.parse_value(value.strip(), origin.name), origin)
+        parsed = parser.parse_value(value.strip(), origin.name)
+        names = [n for n in _names_in(parsed) if n not in ast.WORDS]
+        if names:
+            raise MclError(origin.diagnostic(
+                "error", f"--param {item}: '{names[0]}' is not a value", origin.span(1, 1),
+                "a value is a number (with a unit), a list [a, b] or a point (x, y, z, yaw)",
+                "bad-param"))
+        out[name.strip()] = (parsed, origin)
     return out
+
+
+def _names_in(value: ast.Value) -> list[str]:
+    match value:
+        case ast.Ref(name=n):
+            return [n]
+        case ast.ListValue(items=items) | ast.Point(items=items):
+            return [n for i in items for n in _names_in(i)]
+    return []
 
 
 def _uses(mission: ast.Mission, source: Source) -> list[str] | None:

@@ -183,18 +183,6 @@ class _Checker:
                 self.error(f"'{p.name}' is a reserved word", p.span, code="reserved-word")
             if p.value is not None:
                 params[p.name] = p.value
-        # A parameter whose value names another passes its kind on (PARAM b = a;).
-        for _ in range(len(params) + 1):
-            before = dict(kinds)
-            for name, value in params.items():
-                if name in kinds and name in declared:
-                    check(value, kinds[name], kinds)
-            if kinds == before:
-                break
-        for p in declared.values():
-            if p.name not in kinds:
-                self.warn(f"parameter '{p.name}' is declared but never used", p.span,
-                          code="unused-param")
         for name, (value, origin) in overrides.items():
             if name not in kinds:
                 hint = suggest(name, sorted(kinds)) or (
@@ -203,6 +191,18 @@ class _Checker:
                            code="unknown-param", source=origin)
                 continue
             params[name] = value
+        # A parameter whose value names another passes its kind on (PARAM b = a;).
+        for _ in range(len(params) + 1):
+            before = dict(kinds)
+            for name, value in params.items():
+                if name in kinds:
+                    check(value, kinds[name], kinds)
+            if kinds == before:
+                break
+        for p in declared.values():
+            if p.name not in kinds:
+                self.warn(f"parameter '{p.name}' is declared but never used", p.span,
+                          code="unused-param")
         self._cycles(declared)
         # Each value must suit the way the parameter is used.
         for name, value in list(params.items()):

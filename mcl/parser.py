@@ -124,6 +124,7 @@ def parse_value(text: str, origin: str = "<command line>") -> ast.Value:
         raise error(source, f"not a value: {text!r}", source.span(1, max(col, 1)),
                     "values are numbers with an optional unit (1.5 m), lists [a, b], "
                     "points (x, y, z, yaw) or names", code="bad-value") from None
+    _check_depth(source, tree)
     return _Builder(source).value(tree)
 
 
@@ -203,8 +204,8 @@ def _tok_span(source: Source, tok: Token) -> Span:
 
 
 def _end_span(source: Source) -> Span:
-    lines = source.text.rstrip().splitlines() or [""]
-    return source.span(len(lines), len(lines[-1]) + 1)
+    lines = source.text.rstrip().split("\n") or [""]  # lines as the parser counts them
+    return source.span(len(lines), len(lines[-1].removesuffix("\r")) + 1)
 
 
 _TERMINAL_NAMES = {"LBRACE": "'{'", "RBRACE": "'}'", "LPAR": "'('", "RPAR": "')'",
@@ -238,11 +239,12 @@ def _check_depth(source: Source, tree: Tree[Token]) -> None:
     while stack:
         node, depth = stack.pop()
         steps += 1
-        if node.data == "block":
+        if node.data in ("block", "list", "point"):
             depth += 1
             if depth > MAX_DEPTH:
                 meta = node.meta
-                raise error(source, f"blocks nested more than {MAX_DEPTH} deep",
+                what = "blocks" if node.data == "block" else "blocks and values"
+                raise error(source, f"{what} nested more than {MAX_DEPTH} deep",
                             source.span(meta.line, meta.column),
                             "flatten the mission: deep nesting is almost always a mistake",
                             code="too-deep")

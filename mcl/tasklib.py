@@ -139,6 +139,9 @@ def load_sources(sources: list[Source]) -> Library:
                         source.span(max(exc.line, 1), max(exc.column, 1)),
                         "see mcl/grammar/tasks.lark and docs/TASKS.md for the syntax",
                         code="library-syntax") from None
+        from .parser import _check_depth
+
+        _check_depth(source, tree)
         builder = _Builder(source)
         for node in tree.children:
             assert isinstance(node, Tree)

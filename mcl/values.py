@@ -111,10 +111,14 @@ class Unresolved(Exception):
 def evaluate(value: ast.Value, kind: str, env: dict[str, ast.Value]) -> object:
     """The JSON value of an MCL value, in base units; raises Unresolved for a parameter
     without a value."""
-    if isinstance(value, ast.Ref):
+    for _ in range(len(env) + 1):  # follow a chain of parameters without recursing
+        if not isinstance(value, ast.Ref):
+            break
         if value.name not in env:
             raise Unresolved(value.name)
-        return evaluate(env[value.name], kind, env)
+        value = env[value.name]
+    else:
+        raise ValueError("parameters refer to each other in a cycle")
     match value:
         case ast.Number(value=v, unit=u):
             return v * UNITS[u][1] if u else v

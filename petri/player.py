@@ -3,10 +3,14 @@
 It holds the marking, fires transitions, sends their actions, and waits for events and
 timers. The rules, in order of precedence:
 
-1. *Immediate* transitions (no event, no timer) fire as soon as they are enabled, lowest index
-   first, until none is enabled. A firing sends its actions in the same step, so a task's stop
-   actions always go out before its block reports back (MCL.md's abort rule).
-2. A *timed* transition fires when it has been enabled without interruption for its time.
+1. *Immediate* transitions (no event, no timer) fire as soon as they are enabled, until none
+   is enabled: those that carry an abort first (they put a token in, or take one from, an
+   ``abort`` place), then the others, lowest index first. Aborts first means a block that is
+   being stopped does not start anything new in the same instant. A firing sends its actions
+   in the same step, so a task's stop actions always go out before its block reports back
+   (MCL.md's abort rule).
+2. A *timed* transition fires when it has been enabled without interruption for its time, at
+   that time: timers that fall due before an event are fired before the event is handled.
 3. An *event* fires every transition enabled and waiting for it, lowest index first, each at
    most once (one that an earlier firing of the same event disabled does not fire). An event
    nobody waits for is logged and ignored; ``Link.lost`` that no block waits for aborts the
@@ -67,14 +71,21 @@ class Player:
             for p, _ in t.inputs:
                 self._readers[p].append(i)
         self._immediate = [t.immediate for t in self.net.transitions]
-        self._candidates = [i for i, im in enumerate(self._immediate) if im]  # a heap
-        self._queued = set(self._candidates)
+        aborts = {p for p, place in enumerate(self.net.places) if place.name.endswith(".abort")}
+        # the order in which enabled immediate transitions fire: aborts first, then by index
+        self._rank = [(0 if any(p in aborts for p, _ in t.inputs + t.outputs) else 1, i)
+                      for i, t in enumerate(self.net.transitions)]
+        self._candidates = [self._rank[i] for i, im in enumerate(self._immediate) if im]
+        heapq.heapify(self._candidates)  # a heap of (rank, index)
+        self._queued = {i for _, i in self._candidates}
+        self._clock = float("-inf")  # the time of the last firing: never goes back
         ends = [n for n in ("MISSION.ok", "MISSION.fail") if n in self.net._index]
         self._ends = {self.net.place(n): n.split(".")[1] for n in ends}
 
     # -- the three ways a transition fires -------------------------------------------------
     def start(self, now: float) -> None:
         self.status = "running"
+        self._clock = now
         self._emit(now, "status", {"status": "running"})
         self._arm_timers(now)
         self.settle(now)
@@ -82,34 +93,54 @@ class Player:
     def enabled(self, t: int) -> bool:
         return all(self.marking[p] >= w for p, w in self.net.transitions[t].inputs)
 
-    def settle(self, now: float) -> None:
-        """Fire due timers and immediate transitions until nothing more can fire now."""
+    def settle(self, now: float, before: bool = False) -> None:
+        """Fire immediate transitions and the timers due by ``now`` (``before``: due strictly
+        before it), in time order, until nothing more can fire."""
         for _ in range(MAX_IMMEDIATE_FIRINGS):
-            t = self._next_ready(now)
-            if t is None:
+            t = self._next_immediate()
+            if t is not None:
+                self._fire(t, self._clock, "immediate")
+                continue
+            due = self._next_timer(now - 2e-9 if before else now)
+            if due is None:
                 break
-            self._fire(t, now, "immediate" if self._immediate[t] else "timer")
+            t, when = due
+            self._clock = max(self._clock, when)
+            self._fire(t, self._clock, "timer")
+            self._check_end(self._clock)
         else:
             raise RuntimeError("more than a million firings without an event: the net loops")
-        self._check_end(now)
+        if not before:
+            self._clock = max(self._clock, now)
+        self._check_end(self._clock)
 
-    def _next_ready(self, now: float) -> int | None:
+    def _next_immediate(self) -> int | None:
         # Only a transition that reads a place that gained a token can have become enabled:
-        # those are the candidates, examined lowest index first.
+        # those are the candidates, examined in rank order.
         while self._candidates:
-            t = self._candidates[0]
+            _, t = self._candidates[0]
             if self.enabled(t):
                 return t
             heapq.heappop(self._candidates)
             self._queued.discard(t)
-        for t in self._timed:
-            since = self.enabled_since.get(t)
-            if since is not None and since + self._seconds(t) <= now + 1e-9:
-                return t
         return None
+
+    def _next_timer(self, now: float) -> tuple[int, float] | None:
+        """The timer that falls due first, if it falls due by ``now`` (ties: lowest index)."""
+        best: tuple[float, int] | None = None
+        for t, since in self.enabled_since.items():
+            when = since + self._seconds(t)
+            if when <= now + 1e-9 and (best is None or (when, t) < best):
+                best = (when, t)
+        return None if best is None else (best[1], best[0])
 
     def handle_event(self, event: str, now: float, data: dict[str, Any] | None = None) -> int:
         """Fire what waits for ``event``; returns how many transitions fired."""
+        self.settle(now, before=True)  # timers due before the event fire first; a tie
+        self._clock = max(self._clock, now)  # goes to the event, which was delivered first
+        if self.finished:
+            self._emit(now, "ignored", {"event": event, "reason": "the mission has ended"})
+            return 0
         waiting = [t for t in self._waiting.get(event, []) if self.enabled(t)]
         if not waiting and event == LINK_LOST:
             waiting = [t for t in self._waiting.get(MISSION_ABORT, []) if self.enabled(t)]
@@ -168,7 +199,7 @@ class Player:
         for p, _ in tr.outputs:
             for r in self._readers[p]:
                 if self._immediate[r] and r not in self._queued:
-                    heapq.heappush(self._candidates, r)
+                    heapq.heappush(self._candidates, self._rank[r])
                     self._queued.add(r)
         self._rearm_after(tr.inputs + tr.outputs, now)
 

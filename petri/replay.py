@@ -54,6 +54,7 @@ def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Co
         return Conformance(False, len(records), firings, r["_line"], reason)
 
     cleanup = False
+    on: set[str] = set()  # behaviours the logged actions have switched on
     for r in records[1:]:
         kind, now = r["kind"], float(r.get("t", 0.0))
         if kind == "status" and r.get("status") == "running":
@@ -62,11 +63,20 @@ def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Co
         if kind == "action":
             expected = pending.pop(0) if pending else None
             got = {k: r.get(k) for k in ("action", "behaviour", "params")}
-            if expected is None and cleanup and r.get("action") == "disable":
-                continue  # the player's last line of defence at the end
+            if expected is None and cleanup:  # the player's last line of defence at the end
+                if got != {"action": "disable", "behaviour": got["behaviour"], "params": {}} \
+                        or got["behaviour"] not in on or r.get("task") != "MISSION":
+                    return bad(r, f"{got['action']} {got['behaviour']} at the end: only a "
+                                  "plain disable of a behaviour still on may follow")
+                on.discard(got["behaviour"])
+                continue
             if expected != got:
                 return bad(r, f"action {got['action']} {got['behaviour']} is not what the last "
                               f"firing sends (expected {expected})")
+            if got["action"] == "enable":
+                on.add(str(got["behaviour"]))
+            elif got["action"] == "disable":
+                on.discard(str(got["behaviour"]))
             continue
         if pending:
             return bad(r, f"the last firing should have sent {pending[0]['action']} "
@@ -101,6 +111,8 @@ def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Co
         elif kind == "note" and "switching off" in str(r.get("note", "")):
             cleanup = True
         elif kind == "status":
+            if cleanup and on:
+                return bad(r, f"the mission ends with {', '.join(sorted(on))} still on")
             status = r.get("status")
             marked = {s for p, s in ends.items() if marking[p] > 0}
             if status not in marked:
