@@ -34,6 +34,8 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .sensors import SonarBeam  # one beam of the MSIS (vehicle/sensors.py)
+
 FloatArray = NDArray[np.float64]
 
 ALPHA = math.radians(3.0)  # §5.1: horizontal aperture of the MiniKing beam
@@ -56,19 +58,6 @@ def wrap(angle: float) -> float:
 def angle_residual(a: float, b: float) -> float:
     """a - b for angles, wrapped (the default injectable residual)."""
     return wrap(a - b)
-
-
-@dataclass(frozen=True)
-class SonarBeam:
-    """One MSIS beam: echo intensities along a bearing relative to the vehicle's heading.
-
-    Bin i covers ranges [i, i + 1) * bin_size; its range is taken at the bin's centre.
-    """
-
-    t: float  # s
-    bearing: float  # rad, relative to the vehicle's heading
-    bins: NDArray[np.floating]  # echo intensities (0..1 or arbitrary units)
-    bin_size: float  # m
 
 
 class PlanarPose(Protocol):
