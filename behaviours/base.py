@@ -33,6 +33,7 @@ class Perception:
     r: float = 0.0
     wall_distance: float | None = None  # m, from the wall tracker; None when not tracked
     wall_heading: float | None = None  # rad, heading relative to the wall normal
+    wall_normal: float | None = None  # rad, world direction of the wall's normal (static)
     leak: bool = False
     temperature: float = 20.0  # deg C inside the pressure vessels
     pressure: float = 1.0  # bar inside the pressure vessels
@@ -54,6 +55,7 @@ class Behaviour:
         self.active = False
         self.params: dict[str, Any] = {}
         self.raised: list[tuple[str, dict[str, Any]]] = []
+        self._taken = 0
 
     # -- the lifecycle ------------------------------------------------------------------------
     def initialise(self, params: dict[str, Any], t: float) -> None:
@@ -61,6 +63,7 @@ class Behaviour:
         self.active = True
         self.params = dict(params)
         self.raised = []
+        self._taken = 0
         self.on_initialise(t)
 
     def configure(self, params: dict[str, Any], t: float) -> None:
@@ -79,6 +82,12 @@ class Behaviour:
 
     def on_update(self, p: Perception) -> Response:
         return Response()
+
+    def take_events(self) -> list[tuple[str, dict[str, Any]]]:
+        """The events raised since the last call (the vehicle loop sends them on)."""
+        new = self.raised[self._taken:]
+        self._taken = len(self.raised)
+        return new
 
     def raise_event(self, name: str, **data: Any) -> None:
         """Raise an event once per enable (a behaviour says 'reached' once)."""

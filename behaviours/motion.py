@@ -19,7 +19,7 @@ class GoTo(Behaviour):
     drives = ("x", "y", "z", "yaw")
     events = ("reached", "failed")
 
-    def __init__(self, speed: float = 0.4, gain: float = 0.5, yaw_gain: float = 0.8) -> None:
+    def __init__(self, speed: float = 0.4, gain: float = 0.5, yaw_gain: float = 0.4) -> None:
         super().__init__()
         self.speed, self.gain, self.yaw_gain = speed, gain, yaw_gain
 
@@ -88,7 +88,7 @@ class AchieveHeadDist(Behaviour):
     drives = ("x", "yaw")
     events = ("achieved", "lost")
 
-    def __init__(self, gain: float = 0.4, yaw_gain: float = 0.8, speed: float = 0.3,
+    def __init__(self, gain: float = 0.4, yaw_gain: float = 0.4, speed: float = 0.3,
                  settle: float = 3.0, patience: float = 10.0) -> None:
         super().__init__()
         self.gain, self.yaw_gain, self.speed = gain, yaw_gain, speed
@@ -107,7 +107,12 @@ class AchieveHeadDist(Behaviour):
         heading = math.radians(self.param("heading", 0.0))
         distance = self.param("distance", 1.5)
         e_dist = p.wall_distance - distance
-        e_head = wrap(heading - p.wall_heading)
+        if p.wall_normal is not None:
+            # steer on the compass towards the wall's (static) orientation: smoother than the
+            # sonar's relative heading, which it equals once the tracker has converged
+            e_head = wrap(p.wall_normal + heading - p.psi)
+        else:
+            e_head = wrap(heading - p.wall_heading)
         if abs(e_dist) < 0.1 and abs(e_head) < math.radians(2):
             self.good_since = p.t if self.good_since is None else self.good_since
             if p.t - self.good_since >= self.settle:
