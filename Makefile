@@ -22,15 +22,17 @@ demo: $(STAMP)
 	$(BIN)/mclc missions/dam_inspection.mcl --dot out/dam_inspection.dot \
 	    --dot-tasks out/dam_inspection.tasks.dot --pnml out/dam_inspection.pnml
 	@echo
-	@echo "== The dam mission on a scripted vehicle, with a leak 10 minutes in:"
-	$(BIN)/mcl run missions/dam_inspection.mcl --vehicle script:missions/vehicles/dam_leak.toml \
-	    --log out/dam_leak.jsonl
+	@echo "== The dam mission on the simulated Ictineu (simulated time):"
+	$(BIN)/mcl run missions/dam_inspection.mcl --log out/dam_inspection.jsonl --quiet
+	@echo
+	@echo "== Again, with a water leak 10 minutes in: the CATCH runs and the vehicle surfaces:"
+	$(BIN)/mcl run missions/dam_inspection.mcl --inject leak@600 --log out/dam_leak.jsonl
 	$(BIN)/mcl replay out/dam_leak.jsonl missions/dam_inspection.mcl
 	@echo
 	@echo "== Every mission in missions/:"
 	$(BIN)/mclc missions/*.mcl | grep -E '^(missions|  (verified|NOT))'
 	@echo
-	@echo "Nets written to out/ (Graphviz: dot -Tsvg out/dam_inspection.tasks.dot -o dam.svg)"
+	@echo "Written to out/: run logs (*.jsonl), trajectory plots (*.svg), the nets (*.dot, *.pnml)"
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

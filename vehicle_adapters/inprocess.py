@@ -8,6 +8,7 @@ next event the stack has scheduled, or to ``until`` if none comes before.
 from __future__ import annotations
 
 import logging
+import time
 from typing import Protocol
 
 from .aal import ActionMessage, EventMessage, InvalidMessage
@@ -26,9 +27,13 @@ class InProcess:
 
     simulated = True  # its clock jumps to the next event: the runner need not poll
 
-    def __init__(self, stack: SimulatedStack, start: float = 0.0):
+    def __init__(self, stack: SimulatedStack, start: float = 0.0, speed: float | None = None):
+        """``speed``: run the simulated clock at this many times wall time (1: real time);
+        None: as fast as possible."""
         self.stack = stack
         self._now = start
+        self.speed = speed
+        self._wall0 = time.monotonic()
         self.dropped = 0  # invalid messages received and dropped
 
     def __enter__(self) -> InProcess:
@@ -55,6 +60,10 @@ class InProcess:
             self._now = max(self._now, until)
             return []
         self._now = max(self._now, nxt)
+        if self.speed:  # hold the simulated clock back to wall time
+            ahead = self._now / self.speed - (time.monotonic() - self._wall0)
+            if ahead > 0:
+                time.sleep(min(ahead, 1.0))
         events = []
         for event in self.stack.due(self._now):
             try:

@@ -40,8 +40,15 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a mission on a vehicle")
     r.add_argument("mission", metavar="MISSION.mcl")
-    r.add_argument("--vehicle", default="sim", metavar="KIND:WHERE",
-                   help="script:FILE.toml (a scripted vehicle, simulated time)")
+    r.add_argument("--vehicle", default="sim", metavar="KIND[:WHERE]",
+                   help="sim (default: the simulated Ictineu in front of a dam wall) or "
+                        "script:FILE.toml (a scripted vehicle)")
+    r.add_argument("--seed", type=int, default=1, help="random seed of the simulated vehicle")
+    r.add_argument("--inject", action="append", default=[], metavar="FAULT@SECONDS",
+                   help="a sensor fault at a mission time: leak@600, overtemperature@300, "
+                        "overpressure@900 (simulated vehicle)")
+    r.add_argument("--realtime", action="store_true",
+                   help="run the simulated vehicle at wall-clock speed")
     r.add_argument("--log", metavar="FILE", help="run log (JSON Lines); default "
                    "out/runs/MISSION-TIME.jsonl")
     r.add_argument("--max-time", type=float, default=86_400.0, metavar="SECONDS",
@@ -111,13 +118,13 @@ def _run(args: argparse.Namespace) -> int:
                   "refusing to run it\n  hint: see 'mclc " + args.mission + "'; --no-verify "
                   "runs it anyway", file=sys.stderr)
             return EXIT_FAIL
-    vehicle = _vehicle(args.vehicle)
+    vehicle, stack = _vehicle(args)
     name = compiled.mission.name or Path(args.mission).stem
     log_path = Path(args.log) if args.log else Path("out/runs") / (
         f"{Path(args.mission).stem}-{time.strftime('%Y%m%d-%H%M%S')}.jsonl")
     header = {"mission": name, "file": args.mission, "net": net_digest(compiled.net),
               "params": _param_texts(overrides), "tasks": args.tasks,
-              "vehicle": args.vehicle}
+              "vehicle": args.vehicle, "seed": args.seed, "inject": args.inject}
     player = Player(compiled.net)
     timeline = _Timeline(compiled) if not args.quiet else None
     with RunLog(log_path, header) as log, vehicle:
@@ -132,6 +139,8 @@ def _run(args: argparse.Namespace) -> int:
           f"of mission time ({player.fired} firings)"
           + (f": {outcome.reason}" if outcome.reason else ""))
     print(f"  run log: {log_path}")
+    if stack is not None:
+        _report_survey(stack, log_path, name)
     return EXIT_OK if status == "ok" else EXIT_FAIL
 
 
@@ -142,22 +151,53 @@ def _status_record(outcome: Any) -> Any:
                                                  f"{outcome.reason}"})
 
 
-def _vehicle(spec: str) -> Any:
+def _vehicle(args: argparse.Namespace) -> tuple[Any, Any]:
+    """The adapter, and the simulated stack behind it (None for a scripted vehicle)."""
     from vehicle_adapters.inprocess import InProcess
     from vehicle_adapters.scripted import ScriptedVehicle, ScriptError, load_script
 
-    kind, _, where = spec.partition(":")
+    kind, _, where = args.vehicle.partition(":")
+    speed = 1.0 if args.realtime else None
     if kind == "script":
         if not where:
             raise _Invalid("--vehicle script:FILE.toml needs a file")
+        if args.inject:
+            raise _Invalid("--inject is for the simulated vehicle; a scripted vehicle takes "
+                           "[[at]] events in its file")
         try:
-            return InProcess(ScriptedVehicle(load_script(where)))
+            return InProcess(ScriptedVehicle(load_script(where)), speed=speed), None
         except ScriptError as exc:
             raise _Invalid(str(exc)) from None
-    if kind == "sim":
-        raise _Invalid("the built-in simulated vehicle is not available in this version; "
-                       "use --vehicle script:FILE.toml (see docs/VEHICLES.md)")
-    raise _Invalid(f"unknown vehicle {spec!r}: use script:FILE.toml")
+    if kind == "sim" and not where:
+        from vehicle.stack import FAULTS, IctineuStack, StackConfig
+
+        faults = []
+        for item in args.inject:
+            fault, at, seconds = item.partition("@")
+            try:
+                when = float(seconds)
+            except ValueError:
+                when = -1.0
+            if not at or fault not in FAULTS or not when >= 0:
+                raise _Invalid(f"--inject {item}: expected FAULT@SECONDS with FAULT one of "
+                               f"{', '.join(FAULTS)}, e.g. leak@600")
+            faults.append((fault, when))
+        stack = IctineuStack(StackConfig(seed=args.seed, faults=faults))
+        return InProcess(stack, speed=speed), stack
+    raise _Invalid(f"unknown vehicle {args.vehicle!r}: use sim or script:FILE.toml")
+
+
+def _report_survey(stack: Any, log_path: Path, name: str) -> None:
+    """The simulated run's figures against ground truth, and the trajectory plot."""
+    s = stack.survey.summary()
+    plot = log_path.with_suffix(".svg")
+    plot.write_text(stack.survey.svg(name), encoding="utf-8")
+    print(f"  path {s['path_length_m']} m; wall imaged {s['wall_area_imaged_m2']} m² in "
+          f"{s['images']} images, {100 * s['share_seen_twice']:.0f} % of it in two or more")
+    print(f"  navigator error {s['navigator_rms_m']} m RMS (USBL fixes {s['usbl_fixes']}, "
+          f"{s['usbl_rejected']} rejected); wall tracker error {s['wall_distance_rms_m']} m "
+          f"and {s['wall_heading_rms_deg']} deg RMS during the survey")
+    print(f"  trajectory plot: {plot}")
 
 
 class _Timeline:
