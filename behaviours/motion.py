@@ -56,7 +56,12 @@ class WallInspection(Behaviour):
     def on_initialise(self, t: float) -> None:
         self.index = 0
         path = self.params.get("path") or []
-        self.path = [(float(pt[0]), float(pt[1])) for pt in path if len(pt) >= 2]
+        try:
+            self.path = [(float(pt[0]), float(pt[1])) for pt in path]
+        except (TypeError, ValueError, IndexError):
+            self.path = []
+            self.raise_event("failed", reason="the path is not a list of (y, z) points")
+            return
         if not self.path:
             self.raise_event("failed", reason="empty path")
 
@@ -100,6 +105,7 @@ class AchieveHeadDist(Behaviour):
 
     def on_update(self, p: Perception) -> Response:
         if p.wall_distance is None or p.wall_heading is None:
+            self.good_since = None  # time without the wall does not count as settled
             if p.t - self.seen_at > self.patience:
                 self.raise_event("lost", reason="wall not tracked")
             return Response({"x": 0.0, "yaw": 0.0})

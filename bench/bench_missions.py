@@ -23,7 +23,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 sys.path.insert(0, str(HERE))
-from generate import fan, survey  # noqa: E402
+from generate import fan, survey
 
 MCLC = str(Path(sys.executable).parent / "mclc")
 PEER_TIMEOUT = 60.0

@@ -10,8 +10,16 @@ from petri.net import Net
 
 from . import ast
 from .checker import Checked
-from .templates import (if_then_else, mission, parallel_and, parallel_or, sequence, task,
-                        try_catch_do, while_do)
+from .templates import (
+    if_then_else,
+    mission,
+    parallel_and,
+    parallel_or,
+    sequence,
+    task,
+    try_catch_do,
+    while_do,
+)
 from .templates.common import Context, Interface, Latch
 
 

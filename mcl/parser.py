@@ -11,8 +11,15 @@ import difflib
 import math
 from functools import lru_cache
 
-from lark import Lark, Token, Tree, UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
-from lark import UnexpectedToken
+from lark import (
+    Lark,
+    Token,
+    Tree,
+    UnexpectedCharacters,
+    UnexpectedEOF,
+    UnexpectedInput,
+    UnexpectedToken,
+)
 
 from . import ast
 from .errors import MclError, Source, Span, error, read_source
@@ -93,7 +100,7 @@ KNOWN_MISTAKES: dict[str, tuple[str, str, list[str]]] = {
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
     return Lark.open_from_package("mcl", "mcl.lark", ("grammar",), parser="lalr",
-                                  propagate_positions=True, maybe_placeholders=True,
+                                  propagate_positions=True, maybe_placeholders=True, cache=True,
                                   start=["start", "value"])
 
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache
 
 from petri.verify import Result, Verdict, verify
 
@@ -105,7 +105,7 @@ def _generic_mission(kind: str, arity: int, variant: str) -> str:
     return f"MISSION {{ {body} }}"
 
 
-@lru_cache(maxsize=None)
+@cache
 def template_check(kind: str, arity: int) -> tuple[bool, int, str]:
     """Verify one template with generic children (three variants); (ok, markings, detail)."""
     from .api import compile_source

@@ -103,7 +103,7 @@ class Library:
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
     return Lark.open_from_package("mcl", "tasks.lark", ("grammar",), parser="lalr",
-                                  propagate_positions=True, maybe_placeholders=True,
+                                  propagate_positions=True, maybe_placeholders=True, cache=True,
                                   start="library")
 
 

@@ -3,15 +3,23 @@
 Importing this module fails with ImportError when numba is missing; the caller then falls back
 to :mod:`petri._explore_numpy`, which numbers markings the same way.
 
-Layout (see reachability.py): marking ``i`` is ``words[i]``, a row of K uint64 words that hold
-the token counts as bytes (or wider integers); ``hashes[i]`` is its hash (kept to
-rebuild the hash table when it grows).
+Layout: marking ``i`` is row ``cells[i]`` of token counts (uint8, or wider when a place may hold
+more than 255 tokens), padded to whole 64-bit words; ``words`` is the same memory seen as uint64,
+which is how rows are hashed, compared and copied. ``hashes[i]`` is row i's hash, kept to
+rebuild the hash table when it grows. The compiled code is cached in ``__pycache__`` (numba
+``cache=True``): the first run in a fresh checkout spends several seconds compiling.
 """
+
+# numba types these kernels when it compiles them; mypy cannot see through its decorators.
+# mypy: disable-error-code="no-untyped-def,no-untyped-call,call-arg"
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 _C1 = np.uint64(0x9E3779B97F4A7C15)  # golden-ratio multiplier
 _C2 = np.uint64(0xBF58476D1CE4E5B9)  # splitmix64 finaliser constants
@@ -30,18 +38,32 @@ def _hash(row: np.ndarray) -> np.uint64:
     return h ^ (h >> np.uint64(31))
 
 
-@njit(cache=True)
-def _grow_rows(a: np.ndarray, n: int) -> np.ndarray:
-    b = np.empty((2 * a.shape[0], a.shape[1]), dtype=a.dtype)
-    b[:n] = a[:n]
-    return b
+@intrinsic
+def _prefetch(typingctx, table, row):
+    """Ask the processor to start loading ``table[row, 0]`` into the cache (LLVM's
+    ``llvm.prefetch``: read, high locality, data cache) and go on without waiting for it.
 
+    numba has no prefetch of its own; a plain read would make the loop wait for the value.
+    """
+    if not (isinstance(table, types.Array) and table.ndim == 2):
+        return None
 
-@njit(cache=True)
-def _grow(a: np.ndarray, n: int) -> np.ndarray:
-    b = np.empty(2 * a.shape[0], dtype=a.dtype)
-    b[:n] = a[:n]
-    return b
+    def codegen(context, builder, signature, args):
+        array_type, _ = signature.args
+        array = context.make_array(array_type)(context, builder, args[0])
+        zero = context.get_constant(types.intp, 0)
+        pointer = cgutils.get_item_pointer(context, builder, array_type, array,
+                                           [args[1], zero])
+        byte_pointer = ir.IntType(8).as_pointer()
+        i32 = ir.IntType(32)
+        function = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(ir.VoidType(), [byte_pointer, i32, i32, i32]),
+            "llvm.prefetch.p0")
+        builder.call(function, [builder.bitcast(pointer, byte_pointer), i32(0), i32(3),
+                                i32(1)])
+        return context.get_dummy_value()
+
+    return types.void(table, types.intp), codegen
 
 
 # -- the hash table ---------------------------------------------------------------------
@@ -57,7 +79,7 @@ _LOW32 = np.uint64(0xFFFFFFFF)
 
 
 @njit(cache=True, inline="always")
-def _lookup(table, mask, h, row, words):  # type: ignore[no-untyped-def]
+def _lookup(table, mask, h, row, words):
     """(slot, row number) of ``row``, or (the empty slot where it belongs, -1)."""
     inline = table.shape[1] > 1
     fingerprint = h >> np.uint64(32)
@@ -87,7 +109,7 @@ def _lookup(table, mask, h, row, words):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def _store(table, slot, j, h, row):  # type: ignore[no-untyped-def]
+def _store(table, slot, j, h, row):
     if table.shape[1] > 1:
         table[slot, 0] = np.uint64(j + 1)
         for k in range(row.shape[0]):
@@ -96,136 +118,164 @@ def _store(table, slot, j, h, row):  # type: ignore[no-untyped-def]
         table[slot, 0] = ((h >> np.uint64(32)) << np.uint64(32)) | np.uint64(j + 1)
 
 
-@njit(cache=True)
-def _new_table(size, n_words):  # type: ignore[no-untyped-def]
+def _new_table(size: int, n_words: int) -> np.ndarray:
     width = n_words + 1 if n_words <= _INLINE_WORDS else 1
     return np.zeros((size, width), dtype=np.uint64)
 
 
 @njit(cache=True)
-def _rehash(words, hashes, n, size):  # type: ignore[no-untyped-def]
-    table = _new_table(size, words.shape[1])
-    mask = np.uint64(size - 1)
+def _rehash(table, words, hashes, n):
+    """Insert rows 0..n-1 into the empty ``table``."""
+    mask = np.uint64(table.shape[0] - 1)
     for i in range(n):
         slot = hashes[i] & mask
         while table[slot, 0] != 0:  # at most half full: a free slot exists
             slot = (slot + np.uint64(1)) & mask
         _store(table, slot, i, hashes[i], words[i])
-    return table
 
 
 # -- the search ---------------------------------------------------------------------------
-# The search alternates between _expand, which runs the hot loop over arrays it never
-# reallocates, and explore_rows, which grows the arrays whenever _expand stops because the next
-# marking might not fit. (Reassigning arrays inside the hot loop makes numba reference-count
-# them on every iteration, which more than doubled the time per arc.)
+# The hot loop (_expand) runs over arrays it never reallocates; when the next batch of markings
+# might not fit, it returns and explore_rows, in Python, grows the arrays. Allocating in Python
+# has two benefits: numpy backs big arrays with transparent huge pages (madvise), which spares
+# the hash table most TLB misses, and numba does not reference-count arrays that a loop
+# reassigns (that more than doubled the time per arc).
 
 _RUNNING, _DONE, _MARKING_LIMIT, _TOKEN_LIMIT = -1, 0, 1, 2
+_BATCH = 256  # successors computed before they are looked up (see _expand)
 
 
 @njit(cache=True)
-def _expand(i, n, e, words, hashes, parent, parent_t, src, dst, tr, table, cur, nxt,
-            in_ptr, in_place, in_w, eff_ptr, eff_place, eff_delta, max_markings,
-            max_tokens):  # type: ignore[no-untyped-def]
+def _expand(i, n, e, cells, words, hashes, parent, parent_t, src, dst, tr, table,
+            batch_cells, batch, batch_h, batch_src, batch_t, in_ptr, in_place, in_w,
+            eff_ptr, eff_place, eff_delta, max_markings, max_tokens):
     """Expand markings i, i+1, ... while every successor surely fits in the arrays.
 
     Returns (i, n, e, status, at, t): the next marking to expand, the numbers of markings and
-    arcs, and _RUNNING (grow the arrays and call again) or a final status.
+    arcs, and _RUNNING (grow the arrays and call again) or a final status; on a limit, the
+    markings before ``at`` have all their arcs recorded (see explore_rows).
+
+    Markings are expanded a batch at a time: first the successors of a few markings are
+    computed and the hash-table slot of each is prefetched, so that the processor fetches
+    those slots from memory in parallel (the table is far bigger than the caches); then they
+    are looked up and inserted in order, which keeps the BFS numbering.
     """
     n_words = words.shape[1]
     n_trans = in_ptr.shape[0] - 1
     mask = np.uint64(table.shape[0] - 1)
-    cur_w = cur.view(np.uint64)  # the marking being expanded, as words
-    nxt_w = nxt.view(np.uint64)
+    capacity = batch.shape[0]  # at least n_trans
     while i < n:
-        if (n + n_trans > words.shape[0] or e + n_trans > src.shape[0]
-                or 2 * (n + n_trans) > table.shape[0]):
+        if (n + capacity > words.shape[0] or e + capacity > src.shape[0]
+                or 2 * (n + capacity) > table.shape[0]):
             return i, n, e, _RUNNING, -1, -1
-        for k in range(n_words):
-            cur_w[k] = words[i, k]
-        for t in range(n_trans):
-            enabled = True
-            for a in range(in_ptr[t], in_ptr[t + 1]):
-                if cur[in_place[a]] < in_w[a]:
-                    enabled = False
+        # 1. successors of markings i, i+1, ... (whole markings only) into the batch
+        b = 0
+        over_at, over_t = -1, -1  # a firing that would exceed max_tokens
+        while i < n and b + n_trans <= capacity and over_at < 0:
+            for t in range(n_trans):
+                enabled = True
+                for a in range(in_ptr[t], in_ptr[t + 1]):
+                    if cells[i, in_place[a]] < in_w[a]:
+                        enabled = False
+                        break
+                if not enabled:
+                    continue
+                for k in range(n_words):
+                    batch[b, k] = words[i, k]
+                for a in range(eff_ptr[t], eff_ptr[t + 1]):
+                    value = np.int64(cells[i, eff_place[a]]) + eff_delta[a]
+                    if value > max_tokens:
+                        over_at, over_t = i, t
+                    batch_cells[b, eff_place[a]] = value
+                if over_at >= 0:
                     break
-            if not enabled:
-                continue
-            for k in range(n_words):
-                nxt_w[k] = cur_w[k]
-            for a in range(eff_ptr[t], eff_ptr[t + 1]):
-                value = np.int64(cur[eff_place[a]]) + eff_delta[a]
-                if value > max_tokens:
-                    return i, n, e, _TOKEN_LIMIT, i, t
-                nxt[eff_place[a]] = value
-            h = _hash(nxt_w)
-            slot, j = _lookup(table, mask, h, nxt_w, words)
+                h = _hash(batch[b])
+                batch_h[b] = h
+                batch_src[b] = i
+                batch_t[b] = t
+                _prefetch(table, np.int64(h & mask))
+                b += 1
+            i += 1
+        # 2. look up and insert them in order
+        for s in range(b):
+            row = batch[s]
+            h = batch_h[s]
+            slot, j = _lookup(table, mask, h, row, words)
             if j < 0:
                 if n >= max_markings:
-                    return i, n, e, _MARKING_LIMIT, n - 1, -1
+                    return i, n, e, _MARKING_LIMIT, batch_src[s], -1
                 j = n
                 for k in range(n_words):
-                    words[j, k] = nxt_w[k]
+                    words[j, k] = row[k]
                 hashes[j] = h
-                parent[j] = i
-                parent_t[j] = t
-                _store(table, slot, j, h, nxt_w)
+                parent[j] = batch_src[s]
+                parent_t[j] = batch_t[s]
+                _store(table, slot, j, h, row)
                 n += 1
-            src[e] = i
+            src[e] = batch_src[s]
             dst[e] = j
-            tr[e] = t
+            tr[e] = batch_t[s]
             e += 1
-        i += 1
+        if over_at >= 0:  # the firings before it are recorded; stop here
+            return i, n, e, _TOKEN_LIMIT, over_at, over_t
     return i, n, e, _DONE, -1, -1
 
 
 @njit(cache=True)
-def explore_rows(m0_words, row_template, in_ptr, in_place, in_w, eff_ptr, eff_place,
-                 eff_delta, max_markings, max_tokens):  # type: ignore[no-untyped-def]
-    """BFS from ``m0_words``; returns (words, parent, parent_t, src, dst, tr, status, at, t).
+def _start(table, cells, words, hashes, parent, parent_t, m0):
+    cells[0] = m0
+    hashes[0] = _hash(words[0])
+    parent[0] = -1
+    parent_t[0] = -1
+    _store(table, hashes[0] & np.uint64(table.shape[0] - 1), 0, hashes[0], words[0])
 
-    ``status`` is 0 (complete), 1 (marking limit: ``at`` = last row) or 2 (token limit:
-    firing ``t`` from row ``at`` would exceed ``max_tokens``).
+
+def _grown(a: np.ndarray, n: int) -> np.ndarray:
+    """A copy of ``a`` with twice the rows; the first ``n`` rows are kept."""
+    b = np.empty((2 * a.shape[0],) + a.shape[1:], dtype=a.dtype)
+    b[:n] = a[:n]
+    return b
+
+
+def explore_rows(m0: np.ndarray, in_ptr: np.ndarray, in_place: np.ndarray, in_w: np.ndarray,
+                 eff_ptr: np.ndarray, eff_place: np.ndarray, eff_delta: np.ndarray,
+                 max_markings: int, max_tokens: int) -> tuple:  # type: ignore[type-arg]
+    """BFS from the padded row ``m0``.
+
+    Returns (cells, parent, parent_t, src, dst, tr, status, at, t), where ``status`` is 0
+    (complete), 1 (marking limit: a firing from row ``at`` would make one marking too many)
+    or 2 (token limit: firing ``t`` from row ``at`` would exceed ``max_tokens``). Either way
+    the rows before ``at`` have all their arcs recorded. The arc arrays are views of larger buffers.
     """
-    n_words = m0_words.shape[0]
-    n_trans = in_ptr.shape[0] - 1
-    cap = 1024 + n_trans
-    words = np.empty((cap, n_words), dtype=np.uint64)
+    n_trans = len(in_ptr) - 1
+    capacity = max(_BATCH, n_trans)
+    cap = 1024 + 2 * capacity
+    cells = np.empty((cap, len(m0)), dtype=m0.dtype)
     hashes = np.empty(cap, dtype=np.uint64)
     parent = np.empty(cap, dtype=np.int64)
     parent_t = np.empty(cap, dtype=np.int32)
-    src = np.empty(4 * cap, dtype=np.int32)
-    dst = np.empty(4 * cap, dtype=np.int32)
-    tr = np.empty(4 * cap, dtype=np.int32)
-    size = 1
-    while size < 4 * cap:  # a power of two, at most 8 * cap
-        size *= 2
-    table = _new_table(size, n_words)
-    cur = row_template.copy()
-    nxt = row_template.copy()
+    src, dst, tr = (np.empty(4 * cap, dtype=np.int32) for _ in range(3))
+    n_words = cells.view(np.uint64).shape[1]
+    table = _new_table(1 << (4 * cap - 1).bit_length(), n_words)  # a power of two
+    batch_cells = np.empty((capacity, len(m0)), dtype=m0.dtype)
+    batch_h = np.empty(capacity, dtype=np.uint64)
+    batch_src, batch_t = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
+    _start(table, cells, cells.view(np.uint64), hashes, parent, parent_t, m0)
 
-    words[0] = m0_words
-    hashes[0] = _hash(m0_words)
-    parent[0] = -1
-    parent_t[0] = -1
-    _store(table, hashes[0] & np.uint64(size - 1), 0, hashes[0], m0_words)
     i, n, e, status, at, t = 0, 1, 0, _RUNNING, -1, -1
-    while status == _RUNNING:  # each round grows some array: at most ~60 rounds
+    for _ in range(200):  # each round doubles an array; 2**200 is beyond any memory
         i, n, e, status, at, t = _expand(
-            i, n, e, words, hashes, parent, parent_t, src, dst, tr, table, cur, nxt,
+            i, n, e, cells, cells.view(np.uint64), hashes, parent, parent_t, src, dst, tr,
+            table, batch_cells, batch_cells.view(np.uint64), batch_h, batch_src, batch_t,
             in_ptr, in_place, in_w, eff_ptr, eff_place, eff_delta, max_markings, max_tokens)
         if status != _RUNNING:
             break
-        if n + n_trans > words.shape[0]:
-            words = _grow_rows(words, n)
-            hashes = _grow(hashes, n)
-            parent = _grow(parent, n)
-            parent_t = _grow(parent_t, n)
-        if e + n_trans > src.shape[0]:
-            src = _grow(src, e)
-            dst = _grow(dst, e)
-            tr = _grow(tr, e)
-        if 2 * (n + n_trans) > table.shape[0]:
-            table = _rehash(words, hashes, n, 2 * table.shape[0])
-    return (words[:n].copy(), parent[:n].copy(), parent_t[:n].copy(), src[:e].copy(),
-            dst[:e].copy(), tr[:e].copy(), status, at, t)
+        if n + capacity > len(cells):
+            cells, hashes = _grown(cells, n), _grown(hashes, n)
+            parent, parent_t = _grown(parent, n), _grown(parent_t, n)
+        if e + capacity > len(src):
+            src, dst, tr = _grown(src, e), _grown(dst, e), _grown(tr, e)
+        if 2 * (n + capacity) > len(table):
+            table = _new_table(2 * len(table), n_words)
+            _rehash(table, cells.view(np.uint64), hashes, n)
+    return (cells[:n], parent[:n], parent_t[:n], src[:e], dst[:e], tr[:e], status, at, t)

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import re
 
+from .net import Net
+
 # Transitions that belong to the abort machinery, left out of the task view.
 _ABORT = re.compile(r"\.(abort|stop|late_|stopped|cleanup|off\.|keep\.)|abort_|\.from\.")
-
-from .net import Net
 
 
 def _q(text: str) -> str:

@@ -9,14 +9,15 @@ error names ``file:line:col``, and a big model is never held as an element tree.
   nodes resolved to the node they stand for;
 - names: a place is called by its ``<name><text>`` when that is present and unique among the
   places, otherwise by its id; a transition by its name text, otherwise by its id. A
-  transition's label is its name text when that differs from its name.
+  transition's label is its name text when that differs from its name (for files we wrote,
+  see below, the name text is the label).
 
 Colored (symmetric or high-level) nets are refused with a message that says so.
 
 Writing emits one page whose ids are the names wherever a name is a valid XML id, the place name
-and the transition label in ``<name><text>``, and, when a transition's label differs from its
-name, the name in a ``<toolspecific tool="mcl-auv">`` element (the standard extension point;
-other readers ignore it) so that reading the file back gives the same net.
+and the transition label (or name, if it has no label) in ``<name><text>``, and, when a
+transition has a label, its name in a ``<toolspecific tool="mcl-auv">`` element (the standard
+extension point; other readers ignore it), so that reading the file back gives the same net.
 """
 
 from __future__ import annotations
@@ -131,15 +132,17 @@ class _Reader:
             self.our_tool = attrs.get("tool") == TOOL and parent == "transition"
         elif tag == "net":
             self._start_net(attrs)
-        elif tag in ("place", "transition", "referencePlace", "referenceTransition"):
-            self._start_node(tag, attrs)
-        elif tag == "arc":
-            self._start_arc(attrs)
         elif tag in _COLORED_ELEMENTS and parent in ("place", "arc", "net"):
             raise self.error(f"<{tag}> belongs to colored nets: only P/T nets are supported "
                              "(use the model's PT version)")
         elif tag == "text" and self._wants_text(parent):
             self.text = []
+        elif parent not in ("page", "net"):
+            pass  # not a node, e.g. pm4py's <finalmarkings><marking><place idref=...>
+        elif tag in ("place", "transition", "referencePlace", "referenceTransition"):
+            self._start_node(tag, attrs)
+        elif tag == "arc":
+            self._start_arc(attrs)
 
     def _start_net(self, attrs: dict[str, str]) -> None:
         self.doc.nets += 1
@@ -276,8 +279,11 @@ def _build(doc: _Document, fallback_name: str) -> Net:
         p = place_index[place.id]
         arcs[transition.id][p] = arcs[transition.id].get(p, 0) + weight
     for node in transitions:
-        name = node.tool_name or node.name or node.id
-        label = node.name if node.name and node.name != name else ""
+        if node.tool_name:  # written by us: the name text is the label
+            name, label = node.tool_name, node.name or ""
+        else:
+            name = node.name or node.id
+            label = node.name if node.name and node.name != name else ""
         net.add_transition(name, inputs[node.id], outputs[node.id], label=label)
     return net
 
@@ -364,7 +370,7 @@ def _net_element(net: Net) -> ET.Element:
     transition_ids = [ids.make(t.name, "t") for t in net.transitions]
     for transition, ident in zip(net.transitions, transition_ids):
         element = named(page, "transition", ident, transition.label or transition.name)
-        if transition.label and transition.label != transition.name:
+        if transition.label:
             tool = ET.SubElement(element, q("toolspecific"), tool=TOOL, version=TOOL_VERSION)
             ET.SubElement(tool, q("name")).text = transition.name
     for t, transition in enumerate(net.transitions):

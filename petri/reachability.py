@@ -28,6 +28,11 @@ from petri.net import Net
 
 IntArray = npt.NDArray[np.integer]
 
+# Nets with at most this many places are first tried with the packed-integer engine for safe
+# nets (petri/_explore_bits.py), up to this many markings; above, numba's (or numpy's) engine.
+SMALL_SAFE_PLACES = 4096
+SMALL_SAFE_MARKINGS = 100_000
+
 # Why the search stopped (the kernels return these codes).
 COMPLETE, MARKING_LIMIT, TOKEN_LIMIT = 0, 1, 2
 
@@ -46,6 +51,7 @@ class StateSpace:
     parent_transition: npt.NDArray[np.int32] | None = None  # transition fired from parent
     stop_reason: str = ""  # "" when complete, else what limit stopped the search
     engine: str = ""  # "numba" or "numpy"
+    expanded: int = -1  # markings 0..expanded-1 have all their arcs (-1: all of them)
 
     @property
     def n_markings(self) -> int:
@@ -100,13 +106,24 @@ def _csr(matrix: npt.NDArray[np.int64]) -> tuple[npt.NDArray[np.int64], ...]:
     return ptr, cols.astype(np.int64), matrix[rows, cols].astype(np.int64)
 
 
-def _kernel() -> tuple[str, object]:
-    try:
-        from petri import _explore_numba
-    except ImportError:  # numba is optional: fall back to the numpy search
-        from petri import _explore_numpy
-        return "numpy", _explore_numpy.explore_rows
-    return "numba", _explore_numba.explore_rows
+def _kernel(engine: str) -> tuple[str, object]:
+    """The successor loop: numba's when available (or asked for), numpy's otherwise."""
+    if engine not in ("auto", "numba", "numpy"):
+        raise ValueError(f"unknown engine {engine!r}")
+    if engine != "numpy":
+        try:
+            from petri import _explore_numba
+            return "numba", _explore_numba.explore_rows
+        except ImportError:  # numba is optional
+            if engine == "numba":
+                raise
+    from petri import _explore_numpy
+    return "numpy", _explore_numpy.explore_rows
+
+
+def default_engine() -> str:
+    """The engine ``explore`` uses by default: "numba" when installed, else "numpy"."""
+    return _kernel("auto")[0]
 
 
 def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
@@ -118,24 +135,34 @@ def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
     """
     if not 1 <= max_markings < 2**31:
         raise ValueError("max_markings must lie in [1, 2**31)")
+    if engine == "bits" or (engine == "auto" and len(net.places) <= SMALL_SAFE_PLACES):
+        from petri._explore_bits import explore_bits
+
+        result = explore_bits(net, min(max_markings, SMALL_SAFE_MARKINGS)
+                              if engine == "auto" else max_markings)
+        if result is not None and (result[-1] or engine == "bits"):
+            markings, src, dst, tr, parent, parent_t, complete = result
+            ss = StateSpace(markings, src, dst, tr, bool(complete), None, parent,  # type: ignore[arg-type]
+                            parent_t, engine="bits")  # type: ignore[arg-type]
+            if not complete:
+                ss.stop_reason = f"more than {max_markings} markings"
+            return ss
     compiled = compile_net(net, max_tokens)
-    name, kernel = _kernel()
-    if engine == "numpy" or (engine == "auto" and name == "numpy"):
-        from petri import _explore_numpy
-        name, kernel = "numpy", _explore_numpy.explore_rows
-    elif engine == "numba" and name != "numba":
-        raise ValueError("numba is not installed")
-    words, parent, parent_t, src, dst, tr, status, stop_at, stop_t = kernel(  # type: ignore[operator]
-        compiled.row.view(np.uint64), compiled.row, compiled.in_ptr, compiled.in_place,
-        compiled.in_w, compiled.eff_ptr, compiled.eff_place, compiled.eff_delta,
-        max_markings, max_tokens)
-    markings = words.view(compiled.row.dtype)[:, : len(net.places)]
+    name, kernel = _kernel(engine)
+    cells, parent, parent_t, src, dst, tr, status, stop_at, stop_t = kernel(  # type: ignore[operator]
+        compiled.row, compiled.in_ptr, compiled.in_place, compiled.in_w, compiled.eff_ptr,
+        compiled.eff_place, compiled.eff_delta, max_markings, max_tokens)
+    markings = cells[:, : len(net.places)]
     ss = StateSpace(markings, src, dst, tr, status == COMPLETE, None, parent, parent_t,
                     engine=name)
-    if status != COMPLETE:
-        ss.stop_reason = (f"more than {max_markings} markings" if status == MARKING_LIMIT
-                          else f"more than {max_tokens} tokens in a place")
+    if status == TOKEN_LIMIT:
+        ss.stop_reason = f"more than {max_tokens} tokens in a place"
         ss.unbounded_place = _unbounded_witness(net, ss, int(stop_at), int(stop_t))
+    elif status == MARKING_LIMIT:
+        ss.stop_reason = f"more than {max_markings} markings"
+        ss.unbounded_place = _unbounded_witness(net, ss, ss.n_markings - 1, -1)
+    if status != COMPLETE:
+        ss.expanded = int(stop_at)
     return ss
 
 
@@ -179,13 +206,12 @@ def out_degree(ss: StateSpace) -> npt.NDArray[np.int64]:
 def deadlocks(ss: StateSpace) -> npt.NDArray[np.int64]:
     """Indices of markings with no successor (BFS order, so the first is a nearest one).
 
-    On an incomplete state space, markings whose successors were never computed are not
+    On an incomplete state space, markings whose successors were not all computed are not
     reported.
     """
     dead = np.flatnonzero(out_degree(ss) == 0)
-    if not ss.complete:
-        last_expanded = int(ss.src.max()) if ss.n_arcs else 0
-        dead = dead[dead < last_expanded]
+    if ss.expanded >= 0:
+        dead = dead[dead < ss.expanded]
     return dead
 
 
@@ -203,7 +229,8 @@ def max_tokens(ss: StateSpace) -> int:
 def place_bounds(ss: StateSpace) -> npt.NDArray[np.int64]:
     if not ss.markings.size:
         return np.zeros(ss.markings.shape[1], dtype=np.int64)
-    return ss.markings.max(axis=0).astype(np.int64)
+    bounds: npt.NDArray[np.int64] = ss.markings.max(axis=0).astype(np.int64)
+    return bounds
 
 
 def is_one_safe(ss: StateSpace) -> bool:
@@ -231,7 +258,7 @@ def _bfs_path(ss: StateSpace, targets: npt.NDArray[np.int64]) -> list[int]:
     starts = np.searchsorted(ss.src[order], np.arange(ss.n_markings + 1))
     parent = np.full(ss.n_markings, -1, dtype=np.int64)
     via = np.full(ss.n_markings, -1, dtype=np.int64)
-    wanted = set(int(t) for t in targets)
+    wanted = {int(t) for t in targets}
     seen = np.zeros(ss.n_markings, dtype=bool)
     seen[0] = True
     queue = deque([0])

@@ -181,7 +181,7 @@ def _actions_match(net: Net) -> Result:
     """A static check of each transition: a behaviour that a firing turns on (its output
     places record it, its input places did not) must be enabled by the firing's actions, and
     one it turns off must be disabled by them. This catches a forgotten stop action."""
-    for t, tr in enumerate(net.transitions):
+    for tr in net.transitions:
         before = {b for p, _ in tr.inputs for b in net.places[p].behaviours}
         after = {b for p, _ in tr.outputs for b in net.places[p].behaviours}
         enabled = {a.behaviour for a in tr.actions if a.kind == "enable"}

@@ -112,7 +112,7 @@ def test_same_seed_same_run_and_another_seed_another() -> None:
         robot = Ictineu(VehicleState(-3.0, 1.0, 4.0, 0.2), rng=np.random.default_rng(seed), env=env)
         sensors = Sensors(env, np.random.default_rng(seed + 100))
         rows = []
-        for k in range(400):
+        for _ in range(400):
             s = robot.step(0.05, (5.0, -3.0, 2.0, 0.5))
             readings = sensors.sample(robot.t, s)
             rows.append([*s.as_array(), len(readings)])

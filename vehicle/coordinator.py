@@ -26,12 +26,14 @@ class Coordinator:
         order = sorted(responses, key=lambda b: PRIORITY.index(b) if b in PRIORITY else 99)
         setpoints = {dof: 0.0 for dof in DOFS}
         owner: dict[str, str] = {}
+        contested = False
         for name in order:
             for dof, value in responses[name].demands.items():
                 if dof in owner:
-                    self.overlaps += 1
+                    contested = True
                     continue
                 owner[dof] = name
                 setpoints[dof] = value
+        self.overlaps += contested
         self.last_owner = owner
         return setpoints

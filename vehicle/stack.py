@@ -25,8 +25,16 @@ from .controller import VelocityController
 from .coordinator import Coordinator
 from .navigator import Navigator
 from .robot import Environment, Ictineu, VehicleState, wrap_angle
-from .sensors import (CameraImage, DepthReading, DvlReading, HeadingReading, HousingReading,
-                      Sensors, SonarBeam, UsblFix)
+from .sensors import (
+    CameraImage,
+    DepthReading,
+    DvlReading,
+    HeadingReading,
+    HousingReading,
+    Sensors,
+    SonarBeam,
+    UsblFix,
+)
 from .survey import Survey
 from .wall import WallDetector, WallTracker
 

@@ -9,6 +9,7 @@ the navigator's error, the wall tracker's error during the survey — the figure
 from __future__ import annotations
 
 import math
+from xml.sax.saxutils import escape
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -115,7 +116,7 @@ class Survey:
         out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
                f'font-family="Helvetica" font-size="12">',
                f'<rect width="{width}" height="{height}" fill="white"/>',
-               f'<text x="{pad}" y="20">{title}: path on the wall plane (y along the wall, '
+               f'<text x="{pad}" y="20">{escape(title)}: path on the wall plane (y along the wall, '
                'depth down); dots: USBL fixes (red: rejected)</text>']
         for ymin, ymax, zmin, zmax in self.footprints[::5]:
             out.append(f'<rect x="{pad + (ymin - y0) * sx:.1f}" y="{pad + (zmin - z0) * sz:.1f}" '

@@ -1,0 +1,199 @@
+"""Benchmark of the state-space engine on the Model Checking Contest nets (not a test).
+
+For each model in ../shared/mcc/models it prints, measured in this one run on the same nets:
+
+* ours: markings per second of :func:`petri.reachability.explore` (median of 3, in this
+  process, after a warm-up run so that numba's compilation is not counted), or the seconds of
+  the symbolic search for the nets too large to enumerate;
+* pm4py: markings per second of ``construct_reachability_graph``;
+* SNAKES: markings per second of ``StateGraph.build()``;
+
+and the ratio ours/peer. Peers run in a subprocess with a time limit, and only on models of at
+most PEER_MAX_MARKINGS markings (their searches keep a Python object per marking). Then it
+times whole processes, ``python -m petri.pnml_report MODEL/model.pnml`` (median of 3).
+
+    .venv/bin/python bench/bench_verifier.py [--models NAME ...] [--peer-timeout S]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+MCC = REPO.parent / "shared" / "mcc"
+sys.path.insert(0, str(REPO))
+
+from petri import reachability as rg
+from petri import symbolic
+from petri.net import Net
+from petri.pnml import read_pnml
+
+RUNS = 3
+EXPLICIT_MAX_MARKINGS = 5_000_000  # beyond this, ours is timed symbolically
+PEER_MAX_MARKINGS = 25_000
+WHOLE_PROCESS = ["Kanban-PT-00005", "Philosophers-PT-000020"]
+
+# The peers, run as `python -c PEER_SCRIPT kind model.pnml runs`; they print JSON
+# {"markings": n, "seconds": [t1, t2, ...]}.
+PEER_SCRIPT = r'''
+import json, sys, time, warnings
+warnings.filterwarnings("ignore")
+kind, path, runs = sys.argv[1], sys.argv[2], int(sys.argv[3])
+sys.path.insert(0, sys.argv[4])
+from petri.pnml import read_pnml
+net = read_pnml(path)
+times, count = [], 0
+if kind == "pm4py":
+    import pm4py
+    from pm4py.objects.petri_net.utils.reachability_graph import construct_reachability_graph
+    pn, initial, _ = pm4py.read_pnml(path)
+    for _ in range(runs):
+        t = time.perf_counter()
+        graph = construct_reachability_graph(pn, initial)
+        times.append(time.perf_counter() - t)
+        count = len(graph.states)
+else:
+    from snakes.nets import MultiArc, PetriNet, Place, StateGraph, Transition, Value, dot
+    def arc(weight):
+        return Value(dot) if weight == 1 else MultiArc([Value(dot)] * weight)
+    sn = PetriNet(net.name)
+    for p, place in enumerate(net.places):
+        sn.add_place(Place(f"p{p}", [dot] * net.initial.get(p, 0)))
+    for t, transition in enumerate(net.transitions):
+        sn.add_transition(Transition(f"t{t}"))
+        for p, w in transition.inputs:
+            sn.add_input(f"p{p}", f"t{t}", arc(w))
+        for p, w in transition.outputs:
+            sn.add_output(f"p{p}", f"t{t}", arc(w))
+    for _ in range(runs):
+        t = time.perf_counter()
+        graph = StateGraph(sn)
+        graph.build()
+        times.append(time.perf_counter() - t)
+        count = len(graph)
+print(json.dumps({"markings": count, "seconds": times}))
+'''
+
+
+def extract(model: str, workdir: Path) -> Path:
+    with tarfile.open(MCC / "models" / f"{model}.tgz") as archive:
+        archive.extractall(workdir, filter="data")
+    return workdir / model / "model.pnml"
+
+
+def time_ours(net: Net) -> dict[str, object]:
+    probe = rg.explore(net, max_markings=EXPLICIT_MAX_MARKINGS)  # also the numba warm-up
+    if not probe.complete and symbolic.available() and symbolic.is_candidate(net):
+        times = []
+        for _ in range(RUNS):
+            result = symbolic.explore(net)
+            times.append(result.seconds)
+        return {"method": "symbolic", "markings": result.markings,
+                "seconds": statistics.median(times)}
+    times = []
+    for _ in range(RUNS):
+        start = time.perf_counter()
+        ss = rg.explore(net, max_markings=EXPLICIT_MAX_MARKINGS)
+        times.append(time.perf_counter() - start)
+    return {"method": "explicit" if ss.complete else "explicit (limit)",
+            "markings": ss.n_markings, "arcs": ss.n_arcs, "seconds": statistics.median(times)}
+
+
+def time_peer(kind: str, pnml: Path, timeout: float) -> dict[str, object]:
+    try:
+        proc = subprocess.run([sys.executable, "-c", PEER_SCRIPT, kind, str(pnml), str(RUNS),
+                               str(REPO)], check=False, capture_output=True, text=True,
+                              timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return {"error": f"> {timeout:.0f} s"}
+    if proc.returncode != 0:
+        return {"error": (proc.stderr.strip().splitlines() or ["failed"])[-1][:40]}
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    return {"markings": out["markings"], "seconds": statistics.median(out["seconds"])}
+
+
+def whole_process(pnml: Path) -> tuple[float, str]:
+    times, method = [], ""
+    for _ in range(RUNS):
+        start = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "petri.pnml_report", str(pnml), "--json"],
+                              capture_output=True, text=True, cwd=REPO, check=True)
+        times.append(time.perf_counter() - start)
+        report = json.loads(proc.stdout)
+        method = f"{report['method']}, {report['markings']:,} markings, {report['arcs']:,} arcs"
+    return statistics.median(times), method
+
+
+def rate(entry: dict[str, object]) -> float | None:
+    seconds = entry.get("seconds")
+    if "error" in entry or not isinstance(seconds, float) or seconds <= 0:
+        return None
+    return float(entry["markings"]) / seconds  # type: ignore[arg-type]
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", nargs="*", help="model names (default: all)")
+    parser.add_argument("--peer-timeout", type=float, default=120.0)
+    args = parser.parse_args()
+    if not (MCC / "models").is_dir():
+        print(f"{MCC} is absent: nothing to measure", file=sys.stderr)
+        return 1
+    models = args.models or sorted(p.name.removesuffix(".tgz")
+                                   for p in (MCC / "models").glob("*.tgz"))
+    engine = rg.default_engine()
+    print(f"explicit engine: {engine}; median of {RUNS} runs; peers on models of at most "
+          f"{PEER_MAX_MARKINGS:,} markings, {args.peer_timeout:.0f} s limit\n")
+    header = (f"{'model':<30} {'markings':>26} {'ours':>14} {'pm4py':>12} {'ratio':>7} "
+              f"{'SNAKES':>12} {'ratio':>7}")
+    print(header)
+    print("-" * len(header))
+    with tempfile.TemporaryDirectory() as tmp:
+        for model in models:
+            pnml = extract(model, Path(tmp))
+            ours = time_ours(read_pnml(pnml))
+            peers = {}
+            for kind in ("pm4py", "snakes"):
+                if ours["method"] == "explicit" and \
+                        int(ours["markings"]) <= PEER_MAX_MARKINGS:  # type: ignore[call-overload]
+                    peers[kind] = time_peer(kind, pnml, args.peer_timeout)
+                    if "markings" in peers[kind] and peers[kind]["markings"] != ours["markings"]:
+                        peers[kind]["error"] = f"{peers[kind]['markings']} markings?!"
+                else:
+                    peers[kind] = {"error": "skipped"}
+            print(row(model, ours, peers), flush=True)
+        print("\nwhole process: python -m petri.pnml_report MODEL/model.pnml --json")
+        for model in WHOLE_PROCESS:
+            if model in models or not args.models:
+                seconds, what = whole_process(extract(model, Path(tmp)))
+                print(f"  {model:<28} {seconds:6.2f} s  ({what})")
+    return 0
+
+
+def row(model: str, ours: dict[str, object], peers: dict[str, dict[str, object]]) -> str:
+    our_rate = rate(ours)
+    if ours["method"] == "symbolic":
+        ours_text = f"{ours['seconds']:.2f} s BDD"
+    else:
+        ours_text = f"{our_rate / 1e6:.2f} M/s" if our_rate else "?"
+    cells = [f"{model:<30} {ours['markings']:>26,} {ours_text:>14}"]
+    for kind in ("pm4py", "snakes"):
+        peer = peers[kind]
+        peer_rate = rate(peer)
+        if peer_rate is None or our_rate is None:
+            cells.append(f"{peer.get('error', '-')!s:>12} {'':>7}")
+        else:
+            cells.append(f"{peer_rate / 1e3:>8.1f} k/s {our_rate / peer_rate:>6.0f}x")
+    return " ".join(cells)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
