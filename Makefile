@@ -39,7 +39,7 @@ test: $(STAMP)
 
 check: $(STAMP)
 	$(BIN)/ruff check mcl petri tests bench
-	$(BIN)/mypy mcl petri
+	$(BIN)/mypy mcl petri behaviours vehicle vehicle_adapters
 
 bench: $(STAMP)
 	$(BIN)/python bench/bench_verifier.py

@@ -127,7 +127,7 @@ class _Checker:
                 timeout = arg.value
                 for p in check(arg.value, "duration", self.checked.param_kinds):
                     self.error(p.message, p.node.span, code="bad-argument")
-            else:
+            elif name is not None:
                 args[name] = arg.value
         for formal in form.formals:
             if formal.kind is None:

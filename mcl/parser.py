@@ -139,8 +139,9 @@ def parse_value(text: str, origin: str = "<command line>") -> ast.Value:
 def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
     line, col = max(exc.line, 1), max(exc.column, 1)
     if isinstance(exc, UnexpectedCharacters):
-        char = source.text[exc.pos_in_stream] if exc.pos_in_stream < len(source.text) else ""
-        if source.text.startswith("/*", exc.pos_in_stream):
+        pos = exc.pos_in_stream or 0
+        char = source.text[pos] if pos < len(source.text) else ""
+        if source.text.startswith("/*", pos):
             return error(source, "comment '/*' is never closed", source.span(line, col),
                          "close it with '*/'", code="unclosed-comment")
         return error(source, f"unexpected character {char!r}", source.span(line, col),
@@ -331,8 +332,8 @@ class _Builder:
             name, value = node.children
             assert isinstance(name, Token)
             return ast.Arg(self.value(value), str(name), self.span(node))
-        value = self.value(node)
-        return ast.Arg(value, None, value.span)
+        plain = self.value(node)
+        return ast.Arg(plain, None, plain.span)
 
     def value(self, node: Tree[Token] | Token | None) -> ast.Value:
         if isinstance(node, Token):  # a bare NAME can arrive untransformed

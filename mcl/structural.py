@@ -207,13 +207,13 @@ class _Flow:
             case ast.ParallelAnd(branches=bs) | ast.ParallelOr(branches=bs):
                 ends, during = self._concurrent(list(bs), s, rely)
                 if isinstance(block, ast.ParallelOr):
-                    end: State = frozenset()
+                    first_ends: State = frozenset()
                     for i in range(len(bs)):
                         # the others are aborted: cleaned up if still running, as they ended
                         # if they had just ended (a late abort)
                         others = set().union(*(self.sites(b) for j, b in enumerate(bs) if j != i))
-                        end |= ends[i] | self.cleanup(ends[i], others)
-                    return end, during
+                        first_ends |= ends[i] | self.cleanup(ends[i], others)
+                    return first_ends, during
                 return self._last_writers(list(bs), ends, s), during
             case ast.TryCatchDo(try_=t, catch=c, do=d):
                 ends, during = self._concurrent([t, c], s, rely)

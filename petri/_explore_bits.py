@@ -20,15 +20,15 @@ from .net import Net
 def explore_bits(net: Net, max_markings: int) -> tuple[object, ...] | None:
     """(markings (n, places) uint8, src, dst, transition, parent, parent_transition, complete)
     or None when the net is not 1-safe with unit weights."""
-    if any(w != 1 for t in net.transitions for _, w in t.inputs + t.outputs) or \
+    if any(w != 1 for tr in net.transitions for _, w in tr.inputs + tr.outputs) or \
             any(n > 1 for n in net.initial.values()):
         return None
-    pre = [sum(1 << p for p, _ in t.inputs) for t in net.transitions]
-    post = [sum(1 << p for p, _ in t.outputs) for t in net.transitions]
+    pre = [sum(1 << p for p, _ in tr.inputs) for tr in net.transitions]
+    post = [sum(1 << p for p, _ in tr.outputs) for tr in net.transitions]
     readers: list[list[int]] = [[] for _ in net.places]
-    for i, t in enumerate(net.transitions):
-        if t.inputs:
-            readers[min(p for p, _ in t.inputs)].append(i)  # examined via its first input
+    for i, tr in enumerate(net.transitions):
+        if tr.inputs:
+            readers[min(p for p, _ in tr.inputs)].append(i)  # examined via its first input
     m0 = sum(1 << p for p, n in net.initial.items() if n)
     index = {m0: 0}
     order = [m0]

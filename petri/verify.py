@@ -155,10 +155,9 @@ def verify(net: Net, max_markings: int = 5_000_000) -> Verdict:
     fired[np.unique(ss.transition)] = True
     never = np.flatnonzero(~fired)
     verdict.dead_transitions = never.tolist()
-    tasks_never = sorted({(net.transitions[t].origin.line, net.transitions[t].origin.text)
-                          for t in never if net.transitions[t].origin is not None
-                          and net.transitions[t].origin.kind == "task"
-                          and net.transitions[t].name.endswith(".start")})
+    origins = [(net.transitions[t].origin, net.transitions[t].name) for t in never]
+    tasks_never = sorted({(o.line, o.text) for o, name in origins
+                          if o is not None and o.kind == "task" and name.endswith(".start")})
     if len(never) == 0:
         msg = "every transition can fire"
     else:

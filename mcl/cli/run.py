@@ -248,7 +248,7 @@ def _replay(args: argparse.Namespace) -> int:
                         Source(f"{args.log} header: {name}", text))
                  for name, text in (header.get("params") or {}).items()}
     compiled = _compile(args.mission, args.tasks or header.get("tasks") or [], overrides)
-    params = {}
+    params: dict[str, Any] = {}
     result = check(compiled.net, records, params)
     if result.ok:
         print(f"{args.log}: conforms to {args.mission}: {result.firings} firings in "
