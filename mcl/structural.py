@@ -297,6 +297,10 @@ def analyse(checked: Checked, net_method: str = "") -> Verdict:
         verdict.results.append(Result("dof-exclusive", True, "error",
                                       "no two behaviours driving the same degree of freedom are "
                                       "on together", static))
+    shared = _shared_owner(checked, flow)
+    verdict.results.append(Result("behaviour-single-owner", not shared, "error",
+                                  shared or "no behaviour is held on by two tasks at once",
+                                  static))
     from petri.verify import _actions_match
 
     verdict.results.append(_actions_match(net))
@@ -335,6 +339,23 @@ def _dof_conflict(checked: Checked, flow: _Flow) -> str:
                     return (f"{a.span}: {a.name} ({ba}) and line {b.span.line} {b.name} ({bb}) "
                             f"may drive {', '.join(sorted(common))} at once (both run inside the "
                             f"{construct} at line {construct_line(checked, a, b)})")
+    return ""
+
+
+def _shared_owner(checked: Checked, flow: _Flow) -> str:
+    """A behaviour two tasks may hold on at once (or a task while it is latched on)."""
+    for call in ast.calls(checked.mission.body):
+        for beh in _running(checked, call):
+            for latched, site in sorted(flow.at_call.get(id(call), frozenset())):
+                if site != OFF and latched == beh:
+                    return (f"{call.span}: {call.name} may hold {beh} on while it is latched "
+                            f"on from line {site.split(':')[0]}")
+    for a, b, construct in _may_run_together(checked.mission.body):
+        common = set(_running(checked, a)) & set(_running(checked, b))
+        if common:
+            return (f"{a.span}: {a.name} and line {b.span.line} {b.name} may hold "
+                    f"{', '.join(sorted(common))} on at once (inside the {construct} at line "
+                    f"{construct_line(checked, a, b)}): the first to end switches it off")
     return ""
 
 

@@ -159,6 +159,13 @@ class Player:
         self.settle(now)
         return count
 
+    def fire(self, t: int, now: float, cause: str = "replay") -> None:
+        """Fire one given transition (it must be enabled): for replaying a firing sequence,
+        such as a verifier's counterexample, step by step."""
+        if not self.enabled(t):
+            raise ValueError(f"{self.net.transitions[t].name} is not enabled")
+        self._fire(t, now, cause)
+
     # -- time ---------------------------------------------------------------------------------
     def next_deadline(self) -> float | None:
         """When the earliest armed timer falls due (None if no timer is armed)."""

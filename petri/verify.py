@@ -14,6 +14,7 @@ proper-completion        when the mission's ok or fail place is marked, nothing 
                          (but the latched behaviours' state places)
 behaviours-off-at-end    at every final marking no behaviour is still on
 dof-exclusive            no two behaviours driving the same degree of freedom are on together
+behaviour-single-owner   no behaviour is held on by two tasks (or latches) at once
 actions-match-behaviours each firing that turns a behaviour on (off) sends enable (disable)
 no-dead-transitions      every transition can fire (a warning only)
 =======================  =====================================================================
@@ -143,6 +144,13 @@ def verify(net: Net, max_markings: int = 5_000_000) -> Verdict:
     results.append(_result(ss, "behaviours-off-at-end", left_on,
                            "no behaviour is left on when the mission ends",
                            f"the mission can end with {', '.join(names)} still on", how, net))
+    # one owner per behaviour: two blocks holding one behaviour on means the first to stop it
+    # switches it off under the other (the net would still count it on)
+    shared, who = _shared_owner(net, marked)
+    results.append(_result(ss, "behaviour-single-owner", shared,
+                           "no behaviour is held on by two tasks at once",
+                           f"{who} can be held on by two tasks at once: the first to end "
+                           "switches it off under the other", how, net))
     # degrees of freedom
     conflict, what = _dof_conflicts(net, on)
     results.append(_result(ss, "dof-exclusive", conflict,
@@ -261,6 +269,20 @@ def _behaviours_on(net: Net, marked: npt.NDArray[np.bool_]) -> npt.NDArray[np.bo
 def _names(net: Net, row: npt.NDArray[np.bool_]) -> list[str]:
     behaviours = sorted({b for p in net.places for b in p.behaviours})
     return [b for b, on in zip(behaviours, row) if on]
+
+
+def _shared_owner(net: Net, marked: npt.NDArray[np.bool_]
+                  ) -> tuple[npt.NDArray[np.int64], str]:
+    first: npt.NDArray[np.int64] = np.array([], np.int64)
+    who = ""
+    for b in sorted({b for p in net.places for b in p.behaviours}):
+        cols = [p for p, place in enumerate(net.places) if b in place.behaviours]
+        if len(cols) < 2:
+            continue
+        bad = np.flatnonzero(marked[:, cols].sum(axis=1) > 1)
+        if len(bad) and (len(first) == 0 or bad.min() < first.min()):
+            first, who = bad, b
+    return first, who
 
 
 def _dof_conflicts(net: Net, on: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.int64], str]:

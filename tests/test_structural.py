@@ -77,7 +77,7 @@ def test_structural_misses_no_violation(body: ast.Block) -> None:
     static = structural.analyse(compiled.checked)
     e = {r.name: r.holds for r in explicit.results}
     s = {r.name: r.holds for r in static.results}
-    for prop in ("dof-exclusive", "behaviours-off-at-end"):
+    for prop in ("dof-exclusive", "behaviours-off-at-end", "behaviour-single-owner"):
         if not e[prop]:
             assert not s[prop], f"{prop} violated but the static analysis missed it:\n{text}"
         elif not s[prop]:

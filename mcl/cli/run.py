@@ -2,6 +2,7 @@
 
     mcl run MISSION.mcl --vehicle script:FILE.toml [--param k=v ...] [--log run.jsonl]
     mcl replay run.jsonl MISSION.mcl
+    mcl vehicle --zenoh ENDPOINT [--speed X] [--seed N] [--inject FAULT@S]
     mcl check MISSION.mcl            (the same as mclc)
 
 Exit status of ``run``: 0 the mission ended ok, 1 it ended fail (or could not end), 2 invalid
@@ -42,7 +43,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("mission", metavar="MISSION.mcl")
     r.add_argument("--vehicle", default="sim", metavar="KIND[:WHERE]",
                    help="sim (default: the simulated Ictineu in front of a dam wall) or "
-                        "script:FILE.toml (a scripted vehicle)")
+                        "script:FILE.toml (a scripted vehicle) or zenoh:ENDPOINT (a vehicle "
+                        "served by 'mcl vehicle', e.g. zenoh:tcp/127.0.0.1:7447)")
     r.add_argument("--seed", type=int, default=1, help="random seed of the simulated vehicle")
     r.add_argument("--inject", action="append", default=[], metavar="FAULT@SECONDS",
                    help="a sensor fault at a mission time: leak@600, overtemperature@300, "
@@ -58,6 +60,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="run without verifying first (by default an unverified mission is "
                         "refused)")
     _common(r)
+    sub.add_parser("vehicle", help="serve the simulated vehicle over Zenoh: mcl vehicle "
+                   "--zenoh ENDPOINT [--speed X] [--seed N] [--inject FAULT@S]")
     rp = sub.add_parser("replay", help="check that a run log is a legal run of the mission")
     rp.add_argument("log", metavar="RUN.jsonl")
     rp.add_argument("mission", metavar="MISSION.mcl")
@@ -70,6 +74,10 @@ def main(argv: list[str] | None = None) -> int:
     args_list = sys.argv[1:] if argv is None else argv
     if args_list and args_list[0] == "check":
         return mclc.main(args_list[1:])
+    if args_list and args_list[0] == "vehicle":
+        from vehicle_adapters.serve import main as vehicle_main
+
+        return vehicle_main(args_list[1:])
     args = _parser().parse_args(args_list)
     try:
         if args.command == "run":
@@ -184,7 +192,15 @@ def _vehicle(args: argparse.Namespace) -> tuple[Any, Any]:
             faults.append((fault, when))
         stack = IctineuStack(StackConfig(seed=args.seed, faults=faults))
         return InProcess(stack, speed=speed), stack
-    raise _Invalid(f"unknown vehicle {args.vehicle!r}: use sim or script:FILE.toml")
+    if kind == "zenoh":
+        from vehicle_adapters.zenoh_link import DEFAULT_ENDPOINT, ZenohVehicle
+
+        if args.inject:
+            raise _Invalid("--inject is for the vehicle process: "
+                           "mcl vehicle --zenoh ENDPOINT --inject FAULT@SECONDS")
+        return ZenohVehicle(where or DEFAULT_ENDPOINT, "auv"), None
+    raise _Invalid(f"unknown vehicle {args.vehicle!r}: use sim, script:FILE.toml or "
+                   "zenoh:ENDPOINT")
 
 
 def _report_survey(stack: Any, log_path: Path, name: str) -> None:

@@ -1,0 +1,271 @@
+"""The vehicle side of the Zenoh link: the simulated Ictineu stack served over Zenoh.
+
+    python -m vehicle_adapters.serve --zenoh tcp/127.0.0.1:7447 [--name auv] [--speed 10]
+                                     [--seed 1] [--inject leak@600] [--player-timeout 3]
+
+(to become ``mcl vehicle --zenoh ENDPOINT``). It listens on the endpoint in peer mode
+(multicast scouting off, see :func:`vehicle_adapters.zenoh_link.zenoh_config`), declares the
+liveliness token ``mcl/<v>/alive/vehicle``, takes actions from ``mcl/<v>/aal/action``
+(validated; an invalid one is logged and dropped), publishes the stack's events on
+``mcl/<v>/aal/event``, its clock on ``mcl/<v>/telemetry/clock`` and telemetry (navigator
+estimate, wall tracker, behaviour states) on ``mcl/<v>/telemetry/{navigator,wall,behaviours}``.
+
+Time: the simulated clock starts when a player's liveliness token first appears (so that a
+mission starts from the stack's initial state, as in process), then runs at ``speed`` times
+wall time, one stack tick (``DT``) at a time, paced with ``time.monotonic``; actions that have
+arrived are applied between ticks. If the machine cannot keep up, the simulated clock falls
+behind wall time x speed (the player follows the published clock, not its own guess).
+
+Link health: when the player's token has been gone for ``player_timeout`` **wall** seconds
+(link health is about the real link, not the simulation's speed), the vehicle disables every
+active behaviour and enables Surface, its own safe action. A player that comes back re-arms it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import queue
+import signal
+import sys
+import threading
+import time
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import zenoh
+
+from vehicle.stack import DT, FAULTS, IctineuStack, StackConfig
+
+from .aal import ActionMessage, InvalidMessage
+from .zenoh_link import DEFAULT_ENDPOINT, LEASE_MS, keys, payload_text, zenoh_config
+
+log = logging.getLogger(__name__)
+
+CLOCK_PERIOD = 0.02  # wall s between clock messages
+TELEMETRY_PERIOD = 0.2  # wall s between telemetry messages (5 Hz)
+MAX_SLEEP = 0.01  # wall s: the loop looks at stop, actions and the player at least this often
+
+
+class VehicleServer:
+    """One simulated vehicle on one Zenoh endpoint. :meth:`run` blocks until ``stop`` is set."""
+
+    def __init__(self, endpoint: str = DEFAULT_ENDPOINT, vehicle_name: str = "auv",
+                 speed: float = 10.0, seed: int = 1,
+                 faults: Iterable[tuple[str, float]] = (),
+                 stop: threading.Event | None = None, player_timeout: float = 3.0,
+                 wait_for_player: bool = True, lease_ms: int = LEASE_MS,
+                 ready: threading.Event | None = None):
+        if not speed > 0:
+            raise ValueError("speed must be positive")
+        self.endpoint = endpoint
+        self.name = vehicle_name
+        self.keys = keys(vehicle_name)
+        self.speed = float(speed)
+        self.stack = IctineuStack(StackConfig(seed=seed, faults=list(faults)))
+        self.stop = stop or threading.Event()
+        self.player_timeout = player_timeout
+        self.wait_for_player = wait_for_player
+        self.lease_ms = lease_ms
+        self.ready = ready or threading.Event()
+        self._actions: queue.Queue[ActionMessage] = queue.Queue()
+        self._lock = threading.Lock()
+        self._player_present = threading.Event()
+        self._player_gone_at: float | None = None  # monotonic, while the player is away
+        self.failsafe = False  # the safe action has been taken (and not re-armed)
+        self.dropped = 0  # invalid actions dropped
+        self.actions = 0
+        self.events = 0
+
+    # -- Zenoh callbacks ----------------------------------------------------------------------
+    def _on_action(self, sample: zenoh.Sample) -> None:
+        try:
+            action = ActionMessage.from_json(payload_text(sample))
+        except InvalidMessage as exc:
+            with self._lock:
+                self.dropped += 1
+            log.warning("vehicle dropped an invalid action: %s", exc)
+            return
+        self._actions.put(action)
+
+    def _on_player(self, sample: zenoh.Sample) -> None:
+        with self._lock:
+            if sample.kind == zenoh.SampleKind.PUT:
+                self._player_gone_at = None
+                self._player_present.set()
+                if self.failsafe:
+                    log.warning("player is back: the safe action is re-armed")
+                self.failsafe = False
+            else:
+                self._player_present.clear()
+                self._player_gone_at = time.monotonic()
+                log.warning("player's token went away")
+
+    # -- the loop -------------------------------------------------------------------------------
+    def run(self) -> None:
+        k = self.keys
+        session = zenoh.open(zenoh_config(self.endpoint, listen=True, lease_ms=self.lease_ms))
+        try:
+            pub = {
+                "event": session.declare_publisher(
+                    k["event"], congestion_control=zenoh.CongestionControl.BLOCK,
+                    priority=zenoh.Priority.INTERACTIVE_HIGH, express=True),
+                "clock": session.declare_publisher(
+                    k["clock"], congestion_control=zenoh.CongestionControl.DROP, express=True),
+            }
+            for stream in ("navigator", "wall", "behaviours"):
+                pub[stream] = session.declare_publisher(
+                    f"{k['telemetry']}/{stream}",
+                    congestion_control=zenoh.CongestionControl.DROP,
+                    priority=zenoh.Priority.DATA_LOW)
+            entities: list[Any] = [
+                session.declare_subscriber(k["action"], self._on_action),
+                session.liveliness().declare_subscriber(k["alive_player"], self._on_player,
+                                                        history=True),
+                session.liveliness().declare_token(k["alive_vehicle"]),  # last: all is ready
+            ]
+            self.ready.set()
+            log.info("vehicle %s ready on %s", self.name, self.endpoint)
+            self._loop(pub)
+            for e in reversed(entities):
+                e.undeclare()
+        finally:
+            session.close()  # type: ignore[no-untyped-call]
+
+    def _loop(self, pub: dict[str, Any]) -> None:
+        stack = self.stack
+        next_clock = next_telemetry = 0.0
+        while self.wait_for_player and not self._player_present.is_set():
+            # paused at t = 0 until a player comes: say so (the player's clock stands still)
+            if self.stop.is_set():
+                return
+            self._publish_clock(pub, False)
+            self._player_present.wait(CLOCK_PERIOD)
+        wall0, t0 = time.monotonic(), stack.t
+        while not self.stop.is_set():
+            self._apply_actions()
+            self._check_player()
+            now = time.monotonic()
+            if stack.t + DT <= t0 + (now - wall0) * self.speed:  # a tick is due
+                for event in stack.due(stack.t + DT):
+                    pub["event"].put(event.to_json())
+                    self.events += 1
+            else:
+                due_at = wall0 + (stack.t + DT - t0) / self.speed
+                time.sleep(min(MAX_SLEEP, max(0.0, due_at - now)))
+            now = time.monotonic()
+            if now >= next_clock:
+                self._publish_clock(pub, True)
+                next_clock = now + CLOCK_PERIOD
+            if now >= next_telemetry:
+                self._publish_telemetry(pub)
+                next_telemetry = now + TELEMETRY_PERIOD
+
+    def _apply_actions(self) -> None:
+        while True:
+            try:
+                action = self._actions.get_nowait()
+            except queue.Empty:
+                return
+            self.actions += 1
+            self.stack.on_action(action, self.stack.t)
+
+    def _check_player(self) -> None:
+        with self._lock:
+            gone = self._player_gone_at
+            due = (gone is not None and not self.failsafe
+                   and time.monotonic() - gone >= self.player_timeout)
+            if due:
+                self.failsafe = True
+        if due:
+            self.safe_action()
+
+    def safe_action(self) -> None:
+        """Disable every active behaviour, then enable Surface."""
+        stack, t = self.stack, self.stack.t
+        active = [b.name for b in stack.behaviours.values() if b.active]
+        log.warning("player lost for %.1f s: disabling %s and surfacing",
+                    self.player_timeout, ", ".join(active) or "nothing")
+        for i, name in enumerate(active):
+            stack.on_action(ActionMessage(i, t, "failsafe", "failsafe", "disable", name, {}), t)
+        stack.on_action(ActionMessage(len(active), t, "failsafe", "failsafe", "enable",
+                                      "Surface", {}), t)
+
+    def _publish_clock(self, pub: dict[str, Any], running: bool) -> None:
+        pub["clock"].put(json.dumps({"t": self.stack.t, "speed": self.speed,
+                                     "running": running}))
+
+    def _publish_telemetry(self, pub: dict[str, Any]) -> None:
+        p = self.stack.perception()
+        t = self.stack.t
+        pub["navigator"].put(json.dumps({"t": t, "x": p.x, "y": p.y, "z": p.z, "yaw": p.psi,
+                                         "u": p.u, "v": p.v, "w": p.w, "r": p.r}))
+        pub["wall"].put(json.dumps({"t": t, "detected": p.wall_distance is not None,
+                                    "distance": p.wall_distance, "heading": p.wall_heading}))
+        pub["behaviours"].put(json.dumps({
+            "t": t, "active": sorted(b.name for b in self.stack.behaviours.values() if b.active),
+            "failsafe": self.failsafe, "player": self._player_present.is_set(),
+            "actions": self.actions, "events": self.events, "dropped": self.dropped}))
+
+
+def serve(endpoint: str = DEFAULT_ENDPOINT, vehicle_name: str = "auv", speed: float = 10.0,
+          seed: int = 1, faults: Iterable[tuple[str, float]] = (),
+          stop: threading.Event | None = None, player_timeout: float = 3.0,
+          **options: Any) -> VehicleServer:
+    """Serve a simulated vehicle until ``stop`` is set (blocks); returns the server."""
+    server = VehicleServer(endpoint, vehicle_name, speed, seed, faults, stop, player_timeout,
+                           **options)
+    server.run()
+    return server
+
+
+def _fault(text: str) -> tuple[str, float]:
+    kind, at, seconds = text.partition("@")
+    try:
+        when = float(seconds)
+    except ValueError:
+        when = -1.0
+    if not at or kind not in FAULTS or not when >= 0:
+        raise argparse.ArgumentTypeError(
+            f"{text}: expected FAULT@SECONDS with FAULT one of {', '.join(FAULTS)}")
+    return kind, when
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="mcl vehicle",
+                                description="Serve the simulated Ictineu over Zenoh.")
+    p.add_argument("--zenoh", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
+                   help=f"endpoint to listen on (default {DEFAULT_ENDPOINT})")
+    p.add_argument("--name", default="auv", help="vehicle name in the keys (default auv)")
+    p.add_argument("--speed", type=float, default=10.0, help="times wall time (default 10)")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--inject", action="append", default=[], type=_fault,
+                   metavar="FAULT@SECONDS")
+    p.add_argument("--player-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
+                   help="surface after the player has been gone this long (default 3)")
+    p.add_argument("--no-wait", action="store_true",
+                   help="start the clock at once instead of when a player appears")
+    p.add_argument("--log-level", default="WARNING")
+    args = p.parse_args(argv)
+    logging.basicConfig(level=args.log_level.upper(),
+                        format="%(asctime)s vehicle %(levelname)s %(message)s")
+    stop = threading.Event()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: stop.set())
+    ready = threading.Event()
+    server = VehicleServer(args.zenoh, args.name, args.speed, args.seed, args.inject, stop,
+                           args.player_timeout, wait_for_player=not args.no_wait, ready=ready)
+    announcer = threading.Thread(target=lambda: ready.wait() and print(
+        f"vehicle {args.name} ready on {args.zenoh}", flush=True), daemon=True)
+    announcer.start()
+    try:
+        server.run()
+    except zenoh.ZError as exc:
+        print(f"mcl vehicle: error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,278 @@
+"""The Zenoh adapter (AAL.md): the player on one side of a Zenoh link, the vehicle on the other.
+
+Key layout (``<v>`` is the vehicle's name)::
+
+    mcl/<v>/aal/action            player -> vehicle, ActionMessage JSON, blocking congestion control
+    mcl/<v>/aal/event             vehicle -> player, EventMessage JSON, blocking congestion control
+    mcl/<v>/telemetry/clock       vehicle -> all, {"t": sim seconds, "speed": x wall, "running": bool}
+    mcl/<v>/telemetry/<stream>    vehicle -> all, navigator, wall, behaviours (JSON, droppable)
+    mcl/<v>/mission/status        reserved (the player's mission status)
+    mcl/<v>/alive/vehicle         liveliness token of the vehicle
+    mcl/<v>/alive/player          liveliness token of the player
+
+Both sides run in peer mode with explicit endpoints (the vehicle listens, the player connects)
+and multicast scouting off; the configuration is built in one place, :func:`zenoh_config`.
+The transport lease is short (1 s by default) so that a vehicle that disappears without
+closing its session (a partition) is noticed within about a second; a vehicle process that
+dies closes its TCP socket and is noticed at once.
+
+The player-side adapter, :class:`ZenohVehicle`, follows the vehicle's clock: ``now()`` is the
+last vehicle time received, advanced by wall time x speed since (bounded, so a stalled vehicle
+does not run the player's clock far ahead). When the vehicle's liveliness token goes away,
+or never appears within ``connect_timeout`` wall seconds, it delivers one synthetic
+``Link.lost`` event; from then on its clock runs on wall time x speed so that the player's
+timers and time limits still end the run.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import queue
+import threading
+import time
+from typing import Any
+
+import zenoh
+
+from .aal import ActionMessage, EventMessage, InvalidMessage
+
+log = logging.getLogger(__name__)
+
+DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+LEASE_MS = 1000  # transport lease: a silent peer is declared gone after this long
+MAX_EXTRAPOLATION = 0.25  # wall s: how far the player's clock runs past the last clock message
+MAX_POLL = 0.2  # wall s: the longest single wait in receive()
+
+
+def keys(vehicle: str) -> dict[str, str]:
+    """The key expressions of one vehicle (AAL.md's suggested layout)."""
+    base = f"mcl/{vehicle}"
+    return {"action": f"{base}/aal/action", "event": f"{base}/aal/event",
+            "clock": f"{base}/telemetry/clock", "telemetry": f"{base}/telemetry",
+            "status": f"{base}/mission/status", "alive_vehicle": f"{base}/alive/vehicle",
+            "alive_player": f"{base}/alive/player"}
+
+
+def zenoh_config(endpoint: str = DEFAULT_ENDPOINT, mode: str = "peer", *,
+                 listen: bool = False, connect: bool = False,
+                 lease_ms: int = LEASE_MS) -> zenoh.Config:
+    """The one place a Zenoh configuration is built.
+
+    ``listen``: accept connections on ``endpoint`` (the vehicle); ``connect``: connect to it
+    (the player, tools). Neither: no endpoint (a session that only talks to itself). Multicast
+    scouting is off, gossip too: peers meet only through the explicit endpoints. A peer that
+    does not listen has no listening socket at all (Zenoh's default would be ``tcp/[::]:0``).
+    """
+    if listen == connect and listen:
+        raise ValueError("listen or connect, not both")
+    config = zenoh.Config()
+    config.insert_json5("mode", json.dumps(mode))
+    config.insert_json5("listen/endpoints", json.dumps([endpoint] if listen else []))
+    config.insert_json5("connect/endpoints", json.dumps([endpoint] if connect else []))
+    if connect:  # keep retrying in the background: the liveliness watch reports absence
+        config.insert_json5("connect/exit_on_failure", "false")
+        config.insert_json5("connect/timeout_ms", "-1")
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("scouting/gossip/enabled", "false")
+    config.insert_json5("transport/link/tx/lease", str(int(lease_ms)))
+    config.insert_json5("transport/link/tx/keep_alive", "4")
+    return config
+
+
+def payload_text(sample: zenoh.Sample) -> bytes:
+    return sample.payload.to_bytes()
+
+
+class ZenohVehicle:
+    """The player's adapter to a vehicle stack reached over Zenoh (the Vehicle protocol).
+
+    ``with ZenohVehicle("tcp/127.0.0.1:7447", "auv") as vehicle: run(player, vehicle, ...)``.
+    Entering opens the session, declares the player's liveliness token, the action publisher,
+    the event and clock subscribers and the vehicle's liveliness watch, and waits (at most
+    ``connect_timeout`` wall seconds) for the vehicle's token and its first clock message.
+    It does not raise if the vehicle is absent: the run then gets ``Link.lost``.
+    """
+
+    simulated = False  # the runner polls with bounded waits
+
+    def __init__(self, endpoint: str = DEFAULT_ENDPOINT, vehicle: str = "auv", *,
+                 connect_timeout: float = 5.0, lease_ms: int = LEASE_MS,
+                 max_poll: float = MAX_POLL, config: zenoh.Config | None = None):
+        self.endpoint = endpoint
+        self.name = vehicle
+        self.keys = keys(vehicle)
+        self.connect_timeout = connect_timeout
+        self.max_poll = max_poll
+        self._config = config or zenoh_config(endpoint, connect=True, lease_ms=lease_ms)
+        self._events: queue.Queue[EventMessage] = queue.Queue()
+        self._lock = threading.Lock()
+        self._alive = threading.Event()  # the vehicle's token is present
+        self._clocked = threading.Event()  # a clock message has arrived
+        self._lost = False
+        self.lost_at: float | None = None  # monotonic time Link.lost was raised
+        self.lost_reason = ""
+        self._max_seq = -1
+        # the clock: vehicle time base_t at monotonic base_wall, running at speed x wall
+        self._base_t = 0.0
+        self._base_wall = time.monotonic()
+        self._speed = 1.0
+        self._running = False
+        self._last_now = 0.0
+        self.dropped = 0  # invalid events received and dropped
+        self.received = 0  # valid events received
+        self.sent = 0
+        self.session: zenoh.Session | None = None
+        self._declared: list[Any] = []
+
+    # -- context manager ----------------------------------------------------------------------
+    def __enter__(self) -> ZenohVehicle:
+        self.session = zenoh.open(self._config)
+        s = self.session
+        try:
+            k = self.keys
+            self._publisher = s.declare_publisher(
+                k["action"], congestion_control=zenoh.CongestionControl.BLOCK,
+                priority=zenoh.Priority.INTERACTIVE_HIGH, express=True)
+            self._declared += [
+                self._publisher,
+                s.declare_subscriber(k["event"], self._on_event),
+                s.declare_subscriber(k["clock"], self._on_clock),
+                s.liveliness().declare_subscriber(k["alive_vehicle"], self._on_liveliness,
+                                                  history=True),
+                s.liveliness().declare_token(k["alive_player"]),
+            ]
+            deadline = time.monotonic() + self.connect_timeout
+            if not self._alive.wait(self.connect_timeout):
+                self._link_lost(f"no vehicle token on {k['alive_vehicle']} within "
+                                f"{self.connect_timeout:g} s (endpoint {self.endpoint})")
+            else:
+                self._clocked.wait(max(0.0, deadline - time.monotonic()))
+                # the action subscriber is declared before the vehicle's token: wait (bounded)
+                # until the publisher sees it so that the first action is not lost
+                while not self._publisher.matching_status and time.monotonic() < deadline:
+                    time.sleep(0.002)
+        except BaseException:
+            self.__exit__()
+            raise
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for entity in reversed(self._declared):
+            try:
+                entity.undeclare()
+            except Exception:  # already gone with the session
+                pass
+        self._declared.clear()
+        if self.session is not None:
+            try:
+                self.session.close()  # type: ignore[no-untyped-call]
+            finally:
+                self.session = None
+
+    # -- Zenoh callbacks (Zenoh's threads) --------------------------------------------------------
+    def _on_event(self, sample: zenoh.Sample) -> None:
+        try:
+            event = EventMessage.from_json(payload_text(sample))
+        except InvalidMessage as exc:
+            with self._lock:
+                self.dropped += 1
+            log.warning("player dropped an invalid event on %s: %s", sample.key_expr, exc)
+            return
+        with self._lock:
+            self.received += 1
+            self._max_seq = max(self._max_seq, event.seq)
+            if event.t > self._vehicle_time_locked():  # the event is news of the clock too
+                self._base_t, self._base_wall = event.t, time.monotonic()
+        self._events.put(event)
+
+    def _on_clock(self, sample: zenoh.Sample) -> None:
+        try:
+            d = json.loads(payload_text(sample))
+            t, speed, running = float(d["t"]), float(d["speed"]), bool(d["running"])
+            if not (t >= 0 and speed > 0):
+                raise ValueError("bad clock")
+        except (ValueError, KeyError, TypeError) as exc:
+            log.warning("player ignored an invalid clock message: %s", exc)
+            return
+        with self._lock:
+            self._base_t, self._base_wall = t, time.monotonic()
+            self._speed, self._running = speed, running
+        self._clocked.set()
+
+    def _on_liveliness(self, sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            self._alive.set()
+        else:
+            self._alive.clear()
+            self._link_lost(f"the vehicle's token {sample.key_expr} went away")
+
+    def _link_lost(self, reason: str) -> None:
+        with self._lock:
+            if self._lost:
+                return
+            self._lost = True
+            self.lost_at = time.monotonic()
+            self.lost_reason = reason
+            t = self._vehicle_time_locked()
+            # from now on the clock runs on wall time: the player's timers still fall due
+            self._base_t, self._base_wall, self._running = t, time.monotonic(), True
+            self._max_seq += 1
+            event = EventMessage(self._max_seq, t, "Link", "lost", {"reason": reason})
+        log.warning("link to vehicle %s lost: %s", self.name, reason)
+        self._events.put(event)
+
+    # -- the Vehicle protocol ---------------------------------------------------------------------
+    def _vehicle_time_locked(self) -> float:
+        if not self._running:
+            return self._base_t
+        elapsed = time.monotonic() - self._base_wall
+        if not self._lost:
+            elapsed = min(elapsed, MAX_EXTRAPOLATION)
+        return self._base_t + elapsed * self._speed
+
+    def now(self) -> float:
+        with self._lock:
+            self._last_now = max(self._last_now, self._vehicle_time_locked())
+            return self._last_now
+
+    @property
+    def lost(self) -> bool:
+        return self._lost
+
+    def send(self, action: ActionMessage) -> None:
+        if self.session is None:
+            raise RuntimeError("ZenohVehicle used outside its 'with' block")
+        if self._lost:
+            log.warning("link lost: action %s %s not sent", action.kind, action.behaviour)
+            return
+        self._publisher.put(action.to_json())
+        self.sent += 1
+
+    def receive(self, until: float) -> list[EventMessage]:
+        """The events that have arrived; waits for the first one at most until the clock reads
+        ``until`` and never longer than ``max_poll`` wall seconds."""
+        events: list[EventMessage] = []
+        wall_end = time.monotonic() + self.max_poll
+        while True:
+            try:
+                events.append(self._events.get_nowait())
+                continue
+            except queue.Empty:
+                pass
+            if events:
+                return events
+            remaining_wall = wall_end - time.monotonic()
+            with self._lock:
+                speed = self._speed if self._running else 0.0
+            ahead = until - self.now()
+            if remaining_wall <= 0 or ahead <= 0:
+                return events
+            wait = remaining_wall if speed == 0 else min(remaining_wall, ahead / speed)
+            try:
+                events.append(self._events.get(timeout=max(wait, 1e-4)))
+            except queue.Empty:
+                return events
+
+    def idle(self) -> bool:
+        return False
