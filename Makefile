@@ -38,13 +38,15 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
 check: $(STAMP)
-	$(BIN)/ruff check mcl petri tests bench
+	$(BIN)/ruff check mcl petri behaviours vehicle vehicle_adapters tests bench
 	$(BIN)/mypy mcl petri behaviours vehicle vehicle_adapters
 
 bench: $(STAMP)
 	$(BIN)/python bench/bench_verifier.py
 	$(BIN)/python bench/bench_missions.py
 	$(BIN)/python bench/bench_player.py
+	$(BIN)/python bench/bench_vehicle.py
+	$(BIN)/python bench/bench_zenoh.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .hypothesis
