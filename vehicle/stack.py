@@ -42,6 +42,19 @@ DT = 0.05  # s, the robot's integration step and the control period
 FAULTS = ("leak", "overtemperature", "overpressure")
 
 
+def parse_fault(text: str) -> tuple[str, float]:
+    """'leak@600' -> ("leak", 600.0); ValueError with what to write otherwise."""
+    kind, at, seconds = text.partition("@")
+    try:
+        when = float(seconds)
+    except ValueError:
+        when = -1.0
+    if not at or kind not in FAULTS or not when >= 0:
+        raise ValueError(f"{text}: expected FAULT@SECONDS with FAULT one of "
+                         f"{', '.join(FAULTS)}, e.g. leak@600")
+    return kind, when
+
+
 @dataclass
 class StackConfig:
     seed: int = 1

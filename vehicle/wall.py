@@ -34,6 +34,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .robot import wrap_angle
 from .sensors import SonarBeam  # one beam of the MSIS (vehicle/sensors.py)
 
 FloatArray = NDArray[np.float64]
@@ -47,12 +48,7 @@ THRESHOLD = 0.5  # echo intensity of a "high-intensity" bin
 MIN_RANGE = 0.5  # m, near field of the sonar head whose echoes are discarded (§5)
 
 
-def wrap(angle: float) -> float:
-    """An angle in (-pi, pi]."""
-    a = math.fmod(angle + math.pi, 2.0 * math.pi)
-    if a <= 0.0:
-        a += 2.0 * math.pi
-    return a - math.pi
+wrap = wrap_angle  # an angle in (-pi, pi]
 
 
 def angle_residual(a: float, b: float) -> float:

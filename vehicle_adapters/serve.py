@@ -36,7 +36,7 @@ from typing import Any
 
 import zenoh
 
-from vehicle.stack import DT, FAULTS, IctineuStack, StackConfig
+from vehicle.stack import DT, IctineuStack, StackConfig, parse_fault
 
 from .aal import ActionMessage, InvalidMessage
 from .zenoh_link import DEFAULT_ENDPOINT, LEASE_MS, keys, payload_text, zenoh_config
@@ -221,15 +221,10 @@ def serve(endpoint: str = DEFAULT_ENDPOINT, vehicle_name: str = "auv", speed: fl
 
 
 def _fault(text: str) -> tuple[str, float]:
-    kind, at, seconds = text.partition("@")
     try:
-        when = float(seconds)
-    except ValueError:
-        when = -1.0
-    if not at or kind not in FAULTS or not when >= 0:
-        raise argparse.ArgumentTypeError(
-            f"{text}: expected FAULT@SECONDS with FAULT one of {', '.join(FAULTS)}")
-    return kind, when
+        return parse_fault(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -177,19 +177,12 @@ def _vehicle(args: argparse.Namespace) -> tuple[Any, Any]:
         except ScriptError as exc:
             raise _Invalid(str(exc)) from None
     if kind == "sim" and not where:
-        from vehicle.stack import FAULTS, IctineuStack, StackConfig
+        from vehicle.stack import IctineuStack, StackConfig, parse_fault
 
-        faults = []
-        for item in args.inject:
-            fault, at, seconds = item.partition("@")
-            try:
-                when = float(seconds)
-            except ValueError:
-                when = -1.0
-            if not at or fault not in FAULTS or not when >= 0:
-                raise _Invalid(f"--inject {item}: expected FAULT@SECONDS with FAULT one of "
-                               f"{', '.join(FAULTS)}, e.g. leak@600")
-            faults.append((fault, when))
+        try:
+            faults = [parse_fault(item) for item in args.inject]
+        except ValueError as exc:
+            raise _Invalid(f"--inject {exc}") from None
         stack = IctineuStack(StackConfig(seed=args.seed, faults=faults))
         return InProcess(stack, speed=speed), stack
     if kind == "zenoh":
