@@ -14,11 +14,12 @@ from importlib import resources
 
 from lark import Lark, Token, Tree, UnexpectedInput
 
+from petri.net import POINT_FIELDS
+
 from . import ast
 from .errors import Diagnostic, MclError, Source, Span, error, read_source
 from .values import KINDS, UNITS, check
 
-POINT_FIELDS = {"x": 0, "y": 1, "z": 2, "yaw": 3}
 BUILTIN_SOURCES = ("Link", "Mission")  # events the player itself raises
 ACTION_KINDS = ("enable", "disable", "configure")
 

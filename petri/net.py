@@ -45,6 +45,23 @@ class Action:
         return f"{self.kind} {self.behaviour}" + (f"({args})" if args else "")
 
 
+POINT_FIELDS = {"x": 0, "y": 1, "z": 2, "yaw": 3}
+
+
+def resolve(value: Json, params: dict[str, Json]) -> Json:
+    """An action parameter's value: a literal as it is, or ``{"param": name[, "field": f]}``
+    (a mission parameter without a value when compiled) looked up in ``params``; None if
+    the parameter has no value there."""
+    if not (isinstance(value, dict) and "param" in value):
+        return value
+    v = params.get(value["param"])
+    field_ = value.get("field")
+    if field_ is None or v is None:
+        return v
+    index = POINT_FIELDS[field_]
+    return v[index] if isinstance(v, list) and index < len(v) else None
+
+
 def _short(value: Json) -> str:
     text = repr(value) if not isinstance(value, str) else value
     return text if len(text) <= 40 else text[:37] + "..."

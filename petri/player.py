@@ -28,7 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from .net import Action, Net
+from .net import Action, Net, resolve
 
 MAX_IMMEDIATE_FIRINGS = 1_000_000  # per step: a net that loops without events is a bug
 MISSION_ABORT = "Mission.abort"
@@ -229,16 +229,9 @@ class Player:
                                    "params": params, "task": task})
 
     def _resolve(self, value: Any) -> Any:
-        if isinstance(value, dict) and "param" in value:
-            v = self.params.get(value["param"])
-            if v is None:
-                raise ValueError(f"parameter {value['param']!r} has no value")
-            field_ = value.get("field")
-            if field_ is not None:
-                index = {"x": 0, "y": 1, "z": 2, "yaw": 3}[field_]
-                return v[index] if isinstance(v, list) and index < len(v) else None
-            return v
-        return value
+        if isinstance(value, dict) and "param" in value and value["param"] not in self.params:
+            raise ValueError(f"parameter {value['param']!r} has no value")
+        return resolve(value, self.params)
 
     def _check_end(self, now: float) -> None:
         if self.status != "running":

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from .net import Net
+from .net import Net, resolve
 from .runlog import net_digest
 
 
@@ -105,7 +105,7 @@ def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Co
                 marking[p] += w
             firings += 1
             pending = [{"action": a.kind, "behaviour": a.behaviour,
-                        "params": {k: _resolve(v, params) for k, v in a.params}}
+                        "params": {k: resolve(v, params) for k, v in a.params}}
                        for a in tr.actions]
             rearm(now)
         elif kind == "note" and "switching off" in str(r.get("note", "")):
@@ -123,13 +123,3 @@ def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Co
                            "the log ends before the last firing's actions")
     return Conformance(True, len(records), firings)
 
-
-def _resolve(value: Any, params: dict[str, Any]) -> Any:
-    if isinstance(value, dict) and "param" in value:
-        v = params.get(value["param"])
-        f = value.get("field")
-        if f is not None and isinstance(v, list):
-            index = {"x": 0, "y": 1, "z": 2, "yaw": 3}[f]
-            return v[index] if index < len(v) else None
-        return v
-    return value

@@ -15,11 +15,11 @@ an abort that reaches it is a late one and its parent absorbs it.
 
 from __future__ import annotations
 
-from petri.net import Action
+from petri.net import POINT_FIELDS, Action
 
 from .. import ast, printer
 from ..checker import Resolved
-from ..tasklib import POINT_FIELDS, ActionSpec, Expr, Field
+from ..tasklib import ActionSpec, Expr, Field
 from ..values import Unresolved, evaluate
 from .common import Context, Interface
 
