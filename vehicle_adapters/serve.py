@@ -39,6 +39,8 @@ import zenoh
 from vehicle.stack import DT, IctineuStack, StackConfig, parse_fault
 
 from .aal import ActionMessage, InvalidMessage
+from . import zenoh_security
+from .zenoh_security import Security
 from .zenoh_link import DEFAULT_ENDPOINT, LEASE_MS, keys, payload_text, zenoh_config
 
 log = logging.getLogger(__name__)
@@ -56,7 +58,7 @@ class VehicleServer:
                  faults: Iterable[tuple[str, float]] = (),
                  stop: threading.Event | None = None, player_timeout: float = 3.0,
                  wait_for_player: bool = True, lease_ms: int = LEASE_MS,
-                 ready: threading.Event | None = None):
+                 ready: threading.Event | None = None, security: Security | None = None):
         if not speed > 0:
             raise ValueError("speed must be positive")
         self.endpoint = endpoint
@@ -68,6 +70,7 @@ class VehicleServer:
         self.player_timeout = player_timeout
         self.wait_for_player = wait_for_player
         self.lease_ms = lease_ms
+        self.security = security
         self.ready = ready or threading.Event()
         self._actions: queue.Queue[ActionMessage] = queue.Queue()
         self._lock = threading.Lock()
@@ -105,7 +108,8 @@ class VehicleServer:
     # -- the loop -------------------------------------------------------------------------------
     def run(self) -> None:
         k = self.keys
-        session = zenoh.open(zenoh_config(self.endpoint, listen=True, lease_ms=self.lease_ms))
+        session = zenoh.open(zenoh_config(self.endpoint, listen=True, lease_ms=self.lease_ms,
+                                          security=self.security, role="vehicle"))
         try:
             pub = {
                 "event": session.declare_publisher(
@@ -228,6 +232,11 @@ def _fault(text: str) -> tuple[str, float]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if any(a == "--mavlink" or a.startswith("--mavlink=") for a in argv):
+        from .ardusub import main as ardusub_main  # the ArduSub-like MAVLink vehicle
+
+        return ardusub_main(argv)
     p = argparse.ArgumentParser(prog="mcl vehicle",
                                 description="Serve the simulated Ictineu over Zenoh.")
     p.add_argument("--zenoh", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
@@ -242,7 +251,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--no-wait", action="store_true",
                    help="start the clock at once instead of when a player appears")
     p.add_argument("--log-level", default="WARNING")
+    zenoh_security.add_arguments(p, "vehicle")
     args = p.parse_args(argv)
+    try:
+        security = zenoh_security.from_args(args, "vehicle")
+    except ValueError as exc:
+        p.error(str(exc))
     logging.basicConfig(level=args.log_level.upper(),
                         format="%(asctime)s vehicle %(levelname)s %(message)s")
     stop = threading.Event()
@@ -250,7 +264,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         signal.signal(sig, lambda *_: stop.set())
     ready = threading.Event()
     server = VehicleServer(args.zenoh, args.name, args.speed, args.seed, args.inject, stop,
-                           args.player_timeout, wait_for_player=not args.no_wait, ready=ready)
+                           args.player_timeout, wait_for_player=not args.no_wait, ready=ready,
+                           security=security)
     announcer = threading.Thread(target=lambda: ready.wait() and print(
         f"vehicle {args.name} ready on {args.zenoh}", flush=True), daemon=True)
     announcer.start()

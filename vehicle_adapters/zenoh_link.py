@@ -36,6 +36,8 @@ from typing import Any
 import zenoh
 
 from .aal import ActionMessage, EventMessage, InvalidMessage
+from .zenoh_security import Security
+from .zenoh_security import apply as apply_security
 
 log = logging.getLogger(__name__)
 
@@ -56,7 +58,8 @@ def keys(vehicle: str) -> dict[str, str]:
 
 def zenoh_config(endpoint: str = DEFAULT_ENDPOINT, mode: str = "peer", *,
                  listen: bool = False, connect: bool = False,
-                 lease_ms: int = LEASE_MS) -> zenoh.Config:
+                 lease_ms: int = LEASE_MS, security: Security | None = None,
+                 role: str = "player") -> zenoh.Config:
     """The one place a Zenoh configuration is built.
 
     ``listen``: accept connections on ``endpoint`` (the vehicle); ``connect``: connect to it
@@ -77,6 +80,8 @@ def zenoh_config(endpoint: str = DEFAULT_ENDPOINT, mode: str = "peer", *,
     config.insert_json5("scouting/gossip/enabled", "false")
     config.insert_json5("transport/link/tx/lease", str(int(lease_ms)))
     config.insert_json5("transport/link/tx/keep_alive", "4")
+    if security:
+        apply_security(config, security, role)
     return config
 
 
@@ -98,13 +103,15 @@ class ZenohVehicle:
 
     def __init__(self, endpoint: str = DEFAULT_ENDPOINT, vehicle: str = "auv", *,
                  connect_timeout: float = 5.0, lease_ms: int = LEASE_MS,
-                 max_poll: float = MAX_POLL, config: zenoh.Config | None = None):
+                 max_poll: float = MAX_POLL, config: zenoh.Config | None = None,
+                 security: Security | None = None):
         self.endpoint = endpoint
         self.name = vehicle
         self.keys = keys(vehicle)
         self.connect_timeout = connect_timeout
         self.max_poll = max_poll
-        self._config = config or zenoh_config(endpoint, connect=True, lease_ms=lease_ms)
+        self._config = config or zenoh_config(endpoint, connect=True, lease_ms=lease_ms,
+                                              security=security, role="player")
         self._events: queue.Queue[EventMessage] = queue.Queue()
         self._lock = threading.Lock()
         self._alive = threading.Event()  # the vehicle's token is present

@@ -44,7 +44,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--vehicle", default="sim", metavar="KIND[:WHERE]",
                    help="sim (default: the simulated Ictineu in front of a dam wall) or "
                         "script:FILE.toml (a scripted vehicle) or zenoh:ENDPOINT (a vehicle "
-                        "served by 'mcl vehicle', e.g. zenoh:tcp/127.0.0.1:7447)")
+                        "served by 'mcl vehicle', e.g. zenoh:tcp/127.0.0.1:7447) or "
+                        "mavlink:URL (an ArduSub-class vehicle, e.g. "
+                        "mavlink:udpin:127.0.0.1:14550)")
     r.add_argument("--seed", type=int, default=1, help="random seed of the simulated vehicle")
     r.add_argument("--inject", action="append", default=[], metavar="FAULT@SECONDS",
                    help="a sensor fault at a mission time: leak@600, overtemperature@300, "
@@ -60,6 +62,16 @@ def _parser() -> argparse.ArgumentParser:
                    help="run without verifying first (by default an unverified mission is "
                         "refused)")
     _common(r)
+    from vehicle_adapters import zenoh_security
+
+    zenoh_security.add_arguments(r.add_argument_group("Zenoh link (--vehicle zenoh:...)"),
+                                 "player")
+    m = r.add_argument_group("MAVLink link (--vehicle mavlink:...)")
+    m.add_argument("--signing-key", metavar="FILE",
+                   help="MAVLink 2 signing: the secret key file (default: $MCL_MAVLINK_KEY "
+                        "if set, else unsigned)")
+    m.add_argument("--require-signing", action="store_true",
+                   help="refuse unsigned or wrongly signed messages from the vehicle")
     sub.add_parser("vehicle", help="serve the simulated vehicle over Zenoh: mcl vehicle "
                    "--zenoh ENDPOINT [--speed X] [--seed N] [--inject FAULT@S]")
     rp = sub.add_parser("replay", help="check that a run log is a legal run of the mission")
@@ -191,9 +203,28 @@ def _vehicle(args: argparse.Namespace) -> tuple[Any, Any]:
         if args.inject:
             raise _Invalid("--inject is for the vehicle process: "
                            "mcl vehicle --zenoh ENDPOINT --inject FAULT@SECONDS")
-        return ZenohVehicle(where or DEFAULT_ENDPOINT, "auv"), None
-    raise _Invalid(f"unknown vehicle {args.vehicle!r}: use sim, script:FILE.toml or "
-                   "zenoh:ENDPOINT")
+        from vehicle_adapters import zenoh_security
+
+        try:
+            security = zenoh_security.from_args(args, "player")
+        except ValueError as exc:
+            raise _Invalid(str(exc)) from None
+        return ZenohVehicle(where or DEFAULT_ENDPOINT, "auv", security=security), None
+    if kind == "mavlink":
+        from vehicle_adapters.mavlink_link import DEFAULT_URL, MavlinkVehicle
+        from vehicle_adapters.signing import SigningError, load_key
+
+        if args.inject:
+            raise _Invalid("--inject is for the vehicle process: "
+                           "mcl vehicle --mavlink URL --inject FAULT@SECONDS")
+        try:
+            key = load_key(args.signing_key)
+        except SigningError as exc:
+            raise _Invalid(str(exc)) from None
+        return MavlinkVehicle(where or DEFAULT_URL, signing_key=key,
+                              require_signing=args.require_signing), None
+    raise _Invalid(f"unknown vehicle {args.vehicle!r}: use sim, script:FILE.toml, "
+                   "zenoh:ENDPOINT or mavlink:URL")
 
 
 def _report_survey(stack: Any, log_path: Path, name: str) -> None:
