@@ -16,7 +16,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from typing import Any
 
 import pytest
@@ -26,6 +26,7 @@ zenoh = pytest.importorskip("zenoh")
 from mcl.api import compile_file  # noqa: E402
 from petri.player import Player, Record  # noqa: E402
 from petri.runner import run  # noqa: E402
+from petri.status import task_calls  # noqa: E402
 from vehicle.stack import IctineuStack, StackConfig  # noqa: E402
 from vehicle_adapters.aal import ActionMessage  # noqa: E402
 from vehicle_adapters.inprocess import InProcess  # noqa: E402
@@ -234,3 +235,184 @@ def test_no_vehicle_gives_link_lost_without_hanging() -> None:
     assert time.monotonic() - start < 5
     assert [e.event for e in events] == ["Link.lost"]
     assert vehicle.lost
+
+
+# -- the operator's monitor and the mission status ------------------------------------------------
+
+def mcl(*args: str) -> subprocess.Popen[str]:
+    """A real ``mcl`` subprocess (stdout and stderr piped)."""
+    return subprocess.Popen([sys.executable, "-m", "mcl.cli.run", *args], cwd=REPO,
+                            env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1"),
+                            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def stop(proc: subprocess.Popen[str]) -> tuple[str, str]:
+    if proc.poll() is None:
+        proc.terminate()
+    try:
+        return proc.communicate(timeout=10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        return proc.communicate(timeout=5)
+
+
+def wait_for(predicate: Any, what: str, timeout: float = 30.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            pytest.fail(f"{what}: not within {timeout:g} s")
+        time.sleep(0.02)
+
+
+class Telemetry:
+    """The vehicle's behaviour telemetry (5 Hz), seen from a client session."""
+
+    def __init__(self, endpoint: str):
+        self.session = zenoh.open(zenoh_config(endpoint, "client", connect=True))
+        self.states: list[dict[str, Any]] = []
+        self.sub = self.session.declare_subscriber(
+            f"{keys('auv')['telemetry']}/behaviours",
+            lambda s: self.states.append(json.loads(s.payload.to_bytes())))
+
+    def last(self) -> dict[str, Any]:
+        return self.states[-1] if self.states else {}
+
+    def close(self) -> None:
+        self.sub.undeclare()
+        self.session.close()
+
+
+def test_monitor_follows_the_dam_mission_from_start_and_from_the_middle(tmp_path: Any) -> None:
+    endpoint = free_endpoint()
+    log = tmp_path / "run.jsonl"
+    with vehicle_process(endpoint):
+        early = mcl("monitor", "--zenoh", endpoint, "--until-end", "--plain", "--timeout", "120")
+        late = None
+        try:
+            telemetry = Telemetry(endpoint)
+            try:
+                # the early monitor is connected once the vehicle counts two clients' ... we
+                # cannot see that: wait for its first line instead
+                assert early.stdout is not None
+                first = early.stdout.readline()
+                assert "vehicle alive" in first and "no mission yet" in first, first
+                player = mcl("run", DAM, "--vehicle", f"zenoh:{endpoint}", "--quiet",
+                             "--log", str(log))
+                try:
+                    wait_for(lambda: "WallInspection" in telemetry.last().get("active", []),
+                             "WallInspection enabled")
+                    late = mcl("monitor", "--zenoh", endpoint, "--until-end", "--plain",
+                               "--timeout", "120")
+                    out, err = player.communicate(timeout=120)
+                finally:
+                    stop(player)
+            finally:
+                telemetry.close()
+            assert player.returncode == 0, out + err
+            early_out, _ = early.communicate(timeout=30)
+            late_out, late_err = late.communicate(timeout=30)
+        finally:
+            stop(early)
+            if late is not None:
+                stop(late)
+    assert early.returncode == 0 and late.returncode == 0, late_err
+    lines = (first + early_out).splitlines()
+    assert lines[-1] == "mission ended OK"
+    # the count of tasks done, against the run log: task calls that fired, of all calls
+    compiled = compile_file(DAM, require_values=True)
+    calls = set(task_calls(Player(compiled.net)))
+    fired = {json.loads(line)["transition"].split(".")[0]
+             for line in log.read_text().splitlines() if '"kind":"fire"' in line.replace(" ", "")}
+    assert 0 < len(fired & calls) < len(calls)  # the CATCH branches never ran
+    assert (f"dam_inspection OK  {len(fired & calls)}/{len(calls)} tasks done  running: —"
+            in lines[-2])
+    running = " ".join(lines)
+    for call in ("GoTo@34:9", "AchieveHeadDist@35:9", "WallInspect@39:13", "GoTo@47:9"):
+        assert call in running, f"{call} never shown running"
+    # the late monitor asked for the status: its first line already shows the running survey
+    late_lines = late_out.splitlines()
+    assert "RUNNING" in late_lines[0] and "WallInspect@39:13" in late_lines[0], late_lines[:3]
+    assert late_lines[-1] == "mission ended OK"
+
+
+def test_monitor_without_vehicle_gives_up_after_its_timeout() -> None:
+    proc = mcl("monitor", "--zenoh", free_endpoint(), "--timeout", "1", "--plain")
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 3, (out, err)
+    assert "waiting for the vehicle" in err and "Traceback" not in err
+
+
+# -- restarts: no behaviour left enabled, no stale action replayed ----------------------------------
+
+def test_player_restarted_leaves_nothing_enabled_and_its_actions_are_stale(tmp_path: Any
+                                                                           ) -> None:
+    endpoint = free_endpoint()
+    short = tmp_path / "surface.mcl"
+    short.write_text("MISSION surface { Surface() }\n", encoding="utf-8")
+    with vehicle_process(endpoint, "--player-timeout", "30"):  # no failsafe in this test
+        telemetry = Telemetry(endpoint)
+        try:
+            first = mcl("run", DAM, "--vehicle", f"zenoh:{endpoint}", "--quiet",
+                        "--log", str(tmp_path / "a.jsonl"))
+            try:
+                wait_for(lambda: "WallInspection" in telemetry.last().get("active", []),
+                         "the first player's survey")
+                old_run = telemetry.last()["run"]
+                first.kill()  # no goodbye: the vehicle keeps the survey going
+            finally:
+                stop(first)
+            before = len(telemetry.states)
+            second = mcl("run", str(short), "--vehicle", f"zenoh:{endpoint}", "--quiet",
+                         "--log", str(tmp_path / "b.jsonl"))
+            out, err = second.communicate(timeout=60)
+            assert second.returncode == 0, out + err
+            wait_for(lambda: len(telemetry.states) > before + 2, "telemetry after the restart")
+            after = telemetry.states[before:]
+            assert all(old_run != s["run"] or "WallInspection" in s["active"] for s in after)
+            new = [s for s in after if s["run"] != old_run]
+            assert new, "the vehicle never saw the second player"
+            assert all(set(s["active"]) <= {"Surface"} for s in new), new
+            # the first run's action, replayed now, is refused as stale
+            stale_before = telemetry.last()["stale"]
+            actions_before = telemetry.last()["actions"]
+            replay = ActionMessage(10**6, 0.0, "dam_inspection", "StartCamera@38:13",
+                                   "enable", "StartCamera", {}, run=old_run)
+            telemetry.session.put(keys("auv")["action"], replay.to_json())
+            wait_for(lambda: telemetry.last()["stale"] > stale_before, "the stale count")
+            assert telemetry.last()["actions"] == actions_before
+            assert "StartCamera" not in telemetry.last()["active"]
+        finally:
+            telemetry.close()
+
+
+def test_vehicle_restarted_mid_mission_gets_no_stale_action(compiled: Any) -> None:
+    endpoint = free_endpoint()
+    with ExitStack() as stack:
+        first = stack.enter_context(vehicle_process(endpoint))
+        restarted: dict[str, Any] = {}
+
+        def restart_on_achieved(record: Record, vehicle: ZenohVehicle) -> None:
+            if (record.kind == "event" and record.data["event"] == "AchieveHeadDist.achieved"
+                    and not restarted):
+                first.kill()  # and a new vehicle process at once, on the same endpoint
+                first.wait(timeout=10)
+                restarted["proc"] = stack.enter_context(vehicle_process(endpoint))
+                restarted["telemetry"] = Telemetry(endpoint)
+                stack.callback(restarted["telemetry"].close)
+
+        outcome, records, vehicle = run_over_zenoh(compiled, endpoint, restart_on_achieved)
+        assert restarted, "the mission never reached AchieveHeadDist.achieved"
+        assert vehicle.lost and outcome.status == "fail", outcome
+        events = [r.data["event"] for r in records if r.kind == "event"]
+        assert events[-1] == "Link.lost"
+        # the abort after Link.lost switched behaviours off in the player: those actions are
+        # not sent to the vehicle that took the first one's place
+        lost_at = next(r.t for r in records if r.kind == "event"
+                       and r.data["event"] == "Link.lost")
+        assert [r for r in records if r.kind == "action" and r.t >= lost_at]
+        telemetry = restarted["telemetry"]
+        wait_for(lambda: len(telemetry.states) >= 3, "the new vehicle's telemetry")
+        state = telemetry.last()
+        assert state["actions"] == 0 and state["active"] == [], state
+        assert restarted["proc"].poll() is None

@@ -33,11 +33,15 @@ class ActionMessage:
     kind: str
     behaviour: str
     params: dict[str, Any] = field(default_factory=dict)
+    run: str = ""  # optional: which run of a player sent it (a vehicle drops a stale run's)
 
     def to_json(self) -> str:
-        return json.dumps({"v": VERSION, "seq": self.seq, "t": self.t, "mission": self.mission,
-                           "task": self.task, "kind": self.kind, "behaviour": self.behaviour,
-                           "params": self.params}, separators=(",", ":"))
+        d = {"v": VERSION, "seq": self.seq, "t": self.t, "mission": self.mission,
+             "task": self.task, "kind": self.kind, "behaviour": self.behaviour,
+             "params": self.params}
+        if self.run:
+            d["run"] = self.run
+        return json.dumps(d, separators=(",", ":"))
 
     @staticmethod
     def from_json(text: str | bytes) -> ActionMessage:
@@ -46,8 +50,11 @@ class ActionMessage:
                      "behaviour": str, "params": dict})
         if d["kind"] not in ACTION_KINDS:
             raise InvalidMessage(f"action kind {d['kind']!r} is not one of {ACTION_KINDS}")
+        run = d.get("run", "")
+        if not isinstance(run, str):
+            raise InvalidMessage(f"field 'run' has the wrong type ({type(run).__name__})")
         return ActionMessage(d["seq"], float(d["t"]), d["mission"], d["task"], d["kind"],
-                             d["behaviour"], d["params"])
+                             d["behaviour"], d["params"], run)
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,12 @@ behind wall time x speed (the player follows the published clock, not its own gu
 Link health: when the player's token has been gone for ``player_timeout`` **wall** seconds
 (link health is about the real link, not the simulation's speed), the vehicle disables every
 active behaviour and enables Surface, its own safe action. A player that comes back re-arms it.
+
+Restarts: players announce themselves with ``mcl/<v>/alive/player/<run>``. The vehicle takes
+actions from the latest run only; an action of another run, or one whose ``seq`` is not above
+the last taken from its run, is stale and dropped (counted in telemetry ``stale``). When a new
+run appears the vehicle first switches every behaviour off, so nothing a previous mission
+enabled is left on. A restarted vehicle process starts with every behaviour off.
 """
 
 from __future__ import annotations
@@ -45,6 +51,7 @@ from .zenoh_link import DEFAULT_ENDPOINT, LEASE_MS, keys, payload_text, zenoh_co
 
 log = logging.getLogger(__name__)
 
+NEW_RUN = ActionMessage(-1, 0.0, "", "", "disable", "", {})  # marker: a new player run began
 CLOCK_PERIOD = 0.02  # wall s between clock messages
 TELEMETRY_PERIOD = 0.2  # wall s between telemetry messages (5 Hz)
 MAX_SLEEP = 0.01  # wall s: the loop looks at stop, actions and the player at least this often
@@ -77,6 +84,9 @@ class VehicleServer:
         self._player_present = threading.Event()
         self._player_gone_at: float | None = None  # monotonic, while the player is away
         self.failsafe = False  # the safe action has been taken (and not re-armed)
+        self._run = ""  # the player run whose actions are taken (its token's last part)
+        self._last_seq: dict[str, int] = {}  # per run: the last action seq taken
+        self.stale = 0  # actions of another run, or replayed, dropped
         self.dropped = 0  # invalid actions dropped
         self.actions = 0
         self.events = 0
@@ -90,17 +100,35 @@ class VehicleServer:
                 self.dropped += 1
             log.warning("vehicle dropped an invalid action: %s", exc)
             return
+        with self._lock:
+            stale = ((action.run and action.run != self._run)
+                     or action.seq <= self._last_seq.get(action.run, -1))
+            if stale:
+                self.stale += 1
+            else:
+                self._last_seq[action.run] = action.seq
+        if stale:
+            log.warning("vehicle dropped a stale action (run %s, seq %d; current run %s): "
+                        "%s %s", action.run or "-", action.seq, self._run or "-", action.kind,
+                        action.behaviour)
+            return
         self._actions.put(action)
 
     def _on_player(self, sample: zenoh.Sample) -> None:
+        run = str(sample.key_expr).rpartition("/")[2]
         with self._lock:
             if sample.kind == zenoh.SampleKind.PUT:
+                if run != self._run:
+                    if self._run:
+                        log.warning("a new player run %s replaces %s", run, self._run)
+                    self._run = run
+                    self._actions.put(NEW_RUN)  # applied in the loop, before its actions
                 self._player_gone_at = None
                 self._player_present.set()
                 if self.failsafe:
                     log.warning("player is back: the safe action is re-armed")
                 self.failsafe = False
-            else:
+            elif run == self._run:
                 self._player_present.clear()
                 self._player_gone_at = time.monotonic()
                 log.warning("player's token went away")
@@ -125,8 +153,8 @@ class VehicleServer:
                     priority=zenoh.Priority.DATA_LOW)
             entities: list[Any] = [
                 session.declare_subscriber(k["action"], self._on_action),
-                session.liveliness().declare_subscriber(k["alive_player"], self._on_player,
-                                                        history=True),
+                session.liveliness().declare_subscriber(f"{k['alive_player']}/*",
+                                                        self._on_player, history=True),
                 session.liveliness().declare_token(k["alive_vehicle"]),  # last: all is ready
             ]
             self.ready.set()
@@ -144,7 +172,11 @@ class VehicleServer:
             # paused at t = 0 until a player comes: say so (the player's clock stands still)
             if self.stop.is_set():
                 return
+            self._apply_actions()
             self._publish_clock(pub, False)
+            if time.monotonic() >= next_telemetry:
+                self._publish_telemetry(pub)
+                next_telemetry = time.monotonic() + TELEMETRY_PERIOD
             self._player_present.wait(CLOCK_PERIOD)
         wall0, t0 = time.monotonic(), stack.t
         while not self.stop.is_set():
@@ -172,6 +204,9 @@ class VehicleServer:
                 action = self._actions.get_nowait()
             except queue.Empty:
                 return
+            if action is NEW_RUN:
+                self.switch_off("a new player run")
+                continue
             self.actions += 1
             self.stack.on_action(action, self.stack.t)
 
@@ -185,16 +220,23 @@ class VehicleServer:
         if due:
             self.safe_action()
 
-    def safe_action(self) -> None:
-        """Disable every active behaviour, then enable Surface."""
+    def switch_off(self, why: str) -> list[str]:
+        """Disable every active behaviour; returns their names."""
         stack, t = self.stack, self.stack.t
         active = [b.name for b in stack.behaviours.values() if b.active]
-        log.warning("player lost for %.1f s: disabling %s and surfacing",
-                    self.player_timeout, ", ".join(active) or "nothing")
+        if active:
+            log.warning("%s: disabling %s", why, ", ".join(active))
         for i, name in enumerate(active):
-            stack.on_action(ActionMessage(i, t, "failsafe", "failsafe", "disable", name, {}), t)
-        stack.on_action(ActionMessage(len(active), t, "failsafe", "failsafe", "enable",
-                                      "Surface", {}), t)
+            stack.on_action(ActionMessage(i, t, "vehicle", why, "disable", name, {}), t)
+        return active
+
+    def safe_action(self) -> None:
+        """Disable every active behaviour, then enable Surface."""
+        self.switch_off(f"player lost for {self.player_timeout:g} s")
+        log.warning("surfacing (the player is lost)")
+        t = self.stack.t
+        self.stack.on_action(ActionMessage(0, t, "vehicle", "failsafe", "enable", "Surface",
+                                           {}), t)
 
     def _publish_clock(self, pub: dict[str, Any], running: bool) -> None:
         pub["clock"].put(json.dumps({"t": self.stack.t, "speed": self.speed,
@@ -210,7 +252,8 @@ class VehicleServer:
         pub["behaviours"].put(json.dumps({
             "t": t, "active": sorted(b.name for b in self.stack.behaviours.values() if b.active),
             "failsafe": self.failsafe, "player": self._player_present.is_set(),
-            "actions": self.actions, "events": self.events, "dropped": self.dropped}))
+            "run": self._run, "actions": self.actions, "events": self.events,
+            "dropped": self.dropped, "stale": self.stale}))
 
 
 def serve(endpoint: str = DEFAULT_ENDPOINT, vehicle_name: str = "auv", speed: float = 10.0,

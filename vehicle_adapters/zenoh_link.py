@@ -6,9 +6,17 @@ Key layout (``<v>`` is the vehicle's name)::
     mcl/<v>/aal/event             vehicle -> player, EventMessage JSON, blocking congestion control
     mcl/<v>/telemetry/clock       vehicle -> all, {"t": sim seconds, "speed": x wall, "running": bool}
     mcl/<v>/telemetry/<stream>    vehicle -> all, navigator, wall, behaviours (JSON, droppable)
-    mcl/<v>/mission/status        reserved (the player's mission status)
+    mcl/<v>/mission/status        player -> all, the mission's status (petri/status.py), and a
+                                  queryable answering with the latest one (late monitors)
     mcl/<v>/alive/vehicle         liveliness token of the vehicle
-    mcl/<v>/alive/player          liveliness token of the player
+    mcl/<v>/alive/player/<run>    liveliness token of the player; <run> is its session id,
+                                  also carried in every action's "run" field
+
+Restarts: a vehicle takes actions only from the run whose token it saw last (an action of
+another run, or a ``seq`` at or below the last one taken, is stale: counted and dropped), and
+switches every behaviour off when a new run appears, so nothing of a previous mission is left
+enabled. A player whose vehicle went away (``Link.lost``) sends nothing more on that link: the
+vehicle that comes back in its place starts with every behaviour off and is sent nothing old.
 
 Both sides run in peer mode with explicit endpoints (the vehicle listens, the player connects)
 and multicast scouting off; the configuration is built in one place, :func:`zenoh_config`.
@@ -26,6 +34,7 @@ timers and time limits still end the run.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import queue
@@ -45,6 +54,7 @@ DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 LEASE_MS = 1000  # transport lease: a silent peer is declared gone after this long
 MAX_EXTRAPOLATION = 0.25  # wall s: how far the player's clock runs past the last clock message
 MAX_POLL = 0.2  # wall s: the longest single wait in receive()
+CLIENT_CONNECT_MS = 2000  # a client (mcl monitor) gives up opening after this long
 
 
 def keys(vehicle: str) -> dict[str, str]:
@@ -53,7 +63,7 @@ def keys(vehicle: str) -> dict[str, str]:
     return {"action": f"{base}/aal/action", "event": f"{base}/aal/event",
             "clock": f"{base}/telemetry/clock", "telemetry": f"{base}/telemetry",
             "status": f"{base}/mission/status", "alive_vehicle": f"{base}/alive/vehicle",
-            "alive_player": f"{base}/alive/player"}
+            "alive_player": f"{base}/alive/player", "alive": f"{base}/alive"}
 
 
 def zenoh_config(endpoint: str = DEFAULT_ENDPOINT, mode: str = "peer", *,
@@ -63,7 +73,9 @@ def zenoh_config(endpoint: str = DEFAULT_ENDPOINT, mode: str = "peer", *,
     """The one place a Zenoh configuration is built.
 
     ``listen``: accept connections on ``endpoint`` (the vehicle); ``connect``: connect to it
-    (the player, tools). Neither: no endpoint (a session that only talks to itself). Multicast
+    (the player, tools). Observers (``mcl monitor``) connect in ``client`` mode: the vehicle,
+    a peer, forwards to its clients what other peers (the player) publish, which peers do not
+    do for one another. Neither: no endpoint (a session that only talks to itself). Multicast
     scouting is off, gossip too: peers meet only through the explicit endpoints. A peer that
     does not listen has no listening socket at all (Zenoh's default would be ``tcp/[::]:0``).
     """
@@ -73,7 +85,10 @@ def zenoh_config(endpoint: str = DEFAULT_ENDPOINT, mode: str = "peer", *,
     config.insert_json5("mode", json.dumps(mode))
     config.insert_json5("listen/endpoints", json.dumps([endpoint] if listen else []))
     config.insert_json5("connect/endpoints", json.dumps([endpoint] if connect else []))
-    if connect:  # keep retrying in the background: the liveliness watch reports absence
+    if connect and mode == "client":  # a client's open waits for its connection: bound it
+        config.insert_json5("connect/exit_on_failure", "true")
+        config.insert_json5("connect/timeout_ms", str(CLIENT_CONNECT_MS))
+    elif connect:  # keep retrying in the background: the liveliness watch reports absence
         config.insert_json5("connect/exit_on_failure", "false")
         config.insert_json5("connect/timeout_ms", "-1")
     config.insert_json5("scouting/multicast/enabled", "false")
@@ -130,24 +145,30 @@ class ZenohVehicle:
         self.received = 0  # valid events received
         self.sent = 0
         self.session: zenoh.Session | None = None
+        self.run = ""  # this run's id: the session's Zenoh id
         self._declared: list[Any] = []
+        self._status: bytes | None = None  # the latest mission status (JSON)
 
     # -- context manager ----------------------------------------------------------------------
     def __enter__(self) -> ZenohVehicle:
         self.session = zenoh.open(self._config)
         s = self.session
+        self.run = str(s.zid())
         try:
             k = self.keys
+            self._status_publisher = s.declare_publisher(
+                k["status"], congestion_control=zenoh.CongestionControl.BLOCK)
             self._publisher = s.declare_publisher(
                 k["action"], congestion_control=zenoh.CongestionControl.BLOCK,
                 priority=zenoh.Priority.INTERACTIVE_HIGH, express=True)
             self._declared += [
-                self._publisher,
+                self._publisher, self._status_publisher,
+                s.declare_queryable(k["status"], self._on_status_query),
                 s.declare_subscriber(k["event"], self._on_event),
                 s.declare_subscriber(k["clock"], self._on_clock),
                 s.liveliness().declare_subscriber(k["alive_vehicle"], self._on_liveliness,
                                                   history=True),
-                s.liveliness().declare_token(k["alive_player"]),
+                s.liveliness().declare_token(f"{k['alive_player']}/{self.run}"),
             ]
             deadline = time.monotonic() + self.connect_timeout
             if not self._alive.wait(self.connect_timeout):
@@ -207,6 +228,21 @@ class ZenohVehicle:
             self._speed, self._running = speed, running
         self._clocked.set()
 
+    def _on_status_query(self, query: zenoh.Query) -> None:
+        status = self._status
+        if status is not None:
+            query.reply(self.keys["status"], status)
+
+    def publish_status(self, status: dict[str, Any]) -> None:
+        """Publish the mission's status (and keep it for the queryable); never raises."""
+        self._status = json.dumps(status, separators=(",", ":")).encode()
+        if self.session is None:
+            return
+        try:
+            self._status_publisher.put(self._status)
+        except zenoh.ZError as exc:  # a status lost is not worth ending a mission for
+            log.warning("mission status not published: %s", exc)
+
     def _on_liveliness(self, sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:
             self._alive.set()
@@ -253,7 +289,7 @@ class ZenohVehicle:
         if self._lost:
             log.warning("link lost: action %s %s not sent", action.kind, action.behaviour)
             return
-        self._publisher.put(action.to_json())
+        self._publisher.put(dataclasses.replace(action, run=self.run).to_json())
         self.sent += 1
 
     def receive(self, until: float) -> list[EventMessage]:

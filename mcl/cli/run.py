@@ -3,6 +3,8 @@
     mcl run MISSION.mcl --vehicle script:FILE.toml [--param k=v ...] [--log run.jsonl]
     mcl replay run.jsonl MISSION.mcl
     mcl vehicle --zenoh ENDPOINT [--speed X] [--seed N] [--inject FAULT@S]
+    mcl vehicle --mavlink URL [--speed X] ...   (an ArduSub-like MAVLink vehicle)
+    mcl monitor --zenoh ENDPOINT     (the operator's live view)
     mcl check MISSION.mcl            (the same as mclc)
 
 Exit status of ``run``: 0 the mission ended ok, 1 it ended fail (or could not end), 2 invalid
@@ -72,8 +74,11 @@ def _parser() -> argparse.ArgumentParser:
                         "if set, else unsigned)")
     m.add_argument("--require-signing", action="store_true",
                    help="refuse unsigned or wrongly signed messages from the vehicle")
-    sub.add_parser("vehicle", help="serve the simulated vehicle over Zenoh: mcl vehicle "
-                   "--zenoh ENDPOINT [--speed X] [--seed N] [--inject FAULT@S]")
+    sub.add_parser("vehicle", help="serve the simulated vehicle over Zenoh or MAVLink: mcl "
+                   "vehicle --zenoh ENDPOINT | --mavlink URL [--speed X] [--seed N] "
+                   "[--inject FAULT@S]")
+    sub.add_parser("monitor", help="watch a mission and its vehicle over Zenoh: mcl monitor "
+                   "--zenoh ENDPOINT [--until-end]")
     rp = sub.add_parser("replay", help="check that a run log is a legal run of the mission")
     rp.add_argument("log", metavar="RUN.jsonl")
     rp.add_argument("mission", metavar="MISSION.mcl")
@@ -86,6 +91,10 @@ def main(argv: list[str] | None = None) -> int:
     args_list = sys.argv[1:] if argv is None else argv
     if args_list and args_list[0] == "check":
         return mclc.main(args_list[1:])
+    if args_list and args_list[0] == "monitor":
+        from .monitor import main as monitor_main
+
+        return monitor_main(args_list[1:])
     if args_list and args_list[0] == "vehicle":
         from vehicle_adapters.serve import main as vehicle_main
 
@@ -149,6 +158,12 @@ def _run(args: argparse.Namespace) -> int:
     timeline = _Timeline(compiled) if not args.quiet else None
     with RunLog(log_path, header) as log, vehicle:
         player.observers.append(log)
+        publish = getattr(vehicle, "publish_status", None)
+        if publish is not None:  # observers of the mission: mcl monitor
+            from petri.status import MissionStatus
+
+            player.observers.append(MissionStatus(player, name, getattr(vehicle, "run", ""),
+                                                  publish))
         if timeline:
             player.observers.append(timeline)
         outcome = run(player, vehicle, name, max_time=args.max_time)

@@ -1,0 +1,265 @@
+"""``mcl monitor``: the operator's live view of a mission and its vehicle, over Zenoh.
+
+    mcl monitor --zenoh tcp/127.0.0.1:7447 [--name auv] [--until-end] [--plain]
+
+It connects as an observer (it only reads): the player's mission status
+(``mcl/<v>/mission/status``, asked for once at start so that a monitor started mid-mission
+sees it at once), the vehicle's telemetry (``mcl/<v>/telemetry/*``) and both sides'
+liveliness tokens (``mcl/<v>/alive/**``). On a terminal it redraws one screen in place a few
+times a second (progress, not a log scroll); otherwise (``--plain``, a pipe, a file) it prints
+one line whenever the mission's state changes.
+
+Exit status: 0 on Ctrl-C or when the mission ended OK (``--until-end``), 1 when it ended FAIL,
+2 on invalid options, 3 when ``--timeout`` ran out first.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from typing import Any, TextIO
+
+REFRESH = 0.25  # wall s between redraws
+EXIT_OK, EXIT_FAIL, EXIT_INVALID, EXIT_TIMEOUT = 0, 1, 2, 3
+
+
+class View:
+    """What the monitor knows; updated from Zenoh's threads, read by the drawing loop."""
+
+    def __init__(self, vehicle: str, endpoint: str):
+        self.vehicle = vehicle
+        self.endpoint = endpoint
+        self.lock = threading.Lock()
+        self.status: dict[str, Any] | None = None
+        self.telemetry: dict[str, dict[str, Any]] = {}
+        self.vehicle_alive: bool | None = None  # None: not seen yet
+        self.players: set[str] = set()
+        self.changed = threading.Event()
+
+    def on_status(self, payload: bytes) -> None:
+        try:
+            status = json.loads(payload)
+            if not isinstance(status, dict) or status.get("v") != 1:
+                return
+        except ValueError:
+            return
+        with self.lock:
+            if (self.status is None or status.get("run") != self.status.get("run")
+                    or status.get("t", 0) >= self.status.get("t", 0)):
+                self.status = status
+        self.changed.set()
+
+    def on_telemetry(self, stream: str, payload: bytes) -> None:
+        try:
+            data = json.loads(payload)
+        except ValueError:
+            return
+        if isinstance(data, dict):
+            with self.lock:
+                self.telemetry[stream] = data
+
+    def on_alive(self, key: str, present: bool) -> None:
+        with self.lock:
+            if key.endswith("/alive/vehicle"):
+                self.vehicle_alive = present
+            elif "/alive/player/" in key:
+                run = key.rpartition("/")[2]
+                if present:
+                    self.players.add(run)
+                else:
+                    self.players.discard(run)
+        self.changed.set()
+
+    def ended(self) -> str | None:
+        with self.lock:
+            status = self.status.get("status") if self.status else None
+        return status if status in ("ok", "fail") else None
+
+    # -- rendering -------------------------------------------------------------------------------
+    def screen(self, width: int = 80) -> list[str]:
+        """The full-screen view, one string per line."""
+        with self.lock:
+            st, tel = self.status, dict(self.telemetry)
+            alive, players = self.vehicle_alive, len(self.players)
+        clock = tel.get("clock", {})
+        vstate = {None: "not seen", True: "alive", False: "LOST"}[alive]
+        lines = [f"mcl monitor · vehicle {self.vehicle} @ {self.endpoint}",
+                 f"vehicle {vstate}"
+                 + (f" · clock {clock.get('t', 0):.1f} s at {clock.get('speed', 0):g}× wall"
+                    if clock else "")
+                 + f" · player {'present' if players else 'absent'}", ""]
+        if st is None:
+            lines.append("mission: none reported yet (waiting for a player)")
+        else:
+            done, total = int(st.get("done", 0)), int(st.get("total", 0))
+            lines.append(f"mission {st.get('mission', '?')}  {str(st.get('status')).upper()}"
+                         f"  t = {st.get('t', 0):.1f} s  ({st.get('fired', 0)} firings)")
+            lines.append(f"  {bar(done, total, 30)} {done}/{total} tasks done")
+            running = st.get("running") or []
+            lines.append("  running: " + (", ".join(
+                f"{r['task']} ({st.get('t', 0) - r['since']:.0f} s)" for r in running)
+                if running else "—"))
+            lines.append("  behaviours on: " + (", ".join(st.get("behaviours") or []) or "—"))
+            ev, ac = st.get("last_event"), st.get("last_action")
+            if ev:
+                lines.append(f"  last event:  {ev['event']} at {ev['t']:.1f} s")
+            if ac:
+                lines.append(f"  last action: {ac['action']} {ac['behaviour']} at {ac['t']:.1f} s"
+                             f" ({ac.get('task', '')})")
+        nav, wall, beh = tel.get("navigator"), tel.get("wall"), tel.get("behaviours")
+        lines.append("")
+        if nav:
+            lines.append(f"navigator  x {nav['x']:7.2f}  y {nav['y']:7.2f}  z {nav['z']:6.2f} m"
+                         f"  yaw {_deg(nav['yaw']):6.1f}°  u {nav['u']:5.2f} m/s")
+        if wall:
+            lines.append("wall       " + (f"distance {wall['distance']:.2f} m  heading "
+                                         f"{_deg(wall['heading']):.1f}°" if wall.get("detected")
+                                         else "not tracked"))
+        if beh:
+            lines.append("vehicle    active: " + (", ".join(beh.get("active") or []) or "—")
+                         + ("  FAILSAFE" if beh.get("failsafe") else "")
+                         + f"  (actions {beh.get('actions', 0)}, events {beh.get('events', 0)},"
+                           f" dropped {beh.get('dropped', 0)}, stale {beh.get('stale', 0)})")
+        return [line[:width] for line in lines]
+
+    def line(self) -> str:
+        """One line: the mission's state (for --plain)."""
+        with self.lock:
+            st = self.status
+            alive = self.vehicle_alive
+        vstate = {None: "vehicle not seen", True: "vehicle alive", False: "vehicle LOST"}[alive]
+        if st is None:
+            return f"{vstate}; no mission yet"
+        running = ", ".join(r["task"] for r in st.get("running") or []) or "—"
+        return (f"{st.get('t', 0):8.1f} s  {st.get('mission', '?')} "
+                f"{str(st.get('status')).upper()}  {st.get('done', 0)}/{st.get('total', 0)} "
+                f"tasks done  running: {running}  ({vstate})")
+
+
+def bar(done: int, total: int, width: int) -> str:
+    filled = round(width * done / total) if total else 0
+    return "[" + "#" * filled + "." * (width - filled) + "]"
+
+
+def _deg(radians: Any) -> float:
+    import math
+
+    return math.degrees(float(radians or 0.0))
+
+
+def watch(view: View, until_end: bool, timeout: float | None, plain: bool,
+          out: TextIO, stop: threading.Event) -> int:
+    """The drawing loop: bounded by ``stop``, the mission's end (``until_end``) and
+    ``timeout`` wall seconds."""
+    deadline = time.monotonic() + timeout if timeout else None
+    last_line = ""
+    while not stop.is_set():
+        if plain:
+            line = view.line()
+            if line != last_line:
+                print(line, file=out, flush=True)
+                last_line = line
+        else:
+            out.write("\x1b[H\x1b[J" + "\n".join(view.screen()) + "\n")
+            out.flush()
+        ended = view.ended()
+        if until_end and ended:
+            print(f"mission ended {ended.upper()}", file=out, flush=True)
+            return EXIT_OK if ended == "ok" else EXIT_FAIL
+        if deadline is not None and time.monotonic() >= deadline:
+            print(f"mcl monitor: --timeout of {timeout:g} s reached", file=sys.stderr)
+            return EXIT_TIMEOUT
+        view.changed.wait(REFRESH)
+        view.changed.clear()
+    return EXIT_OK
+
+
+def _open(zenoh: Any, config: Any, endpoint: str, timeout: float | None,
+          stop: threading.Event) -> Any:
+    """Open the client session, retrying while the vehicle is not there yet (bounded by
+    ``timeout`` and ``stop``); None if it never came."""
+    deadline = time.monotonic() + timeout if timeout else None
+    said = False
+    while not stop.is_set():
+        try:
+            return zenoh.open(config)
+        except zenoh.ZError as exc:
+            if not said:
+                print(f"mcl monitor: waiting for the vehicle at {endpoint} ({exc})",
+                      file=sys.stderr, flush=True)
+                said = True
+        if deadline is not None and time.monotonic() >= deadline:
+            print(f"mcl monitor: no vehicle at {endpoint} within {timeout:g} s",
+                  file=sys.stderr)
+            return None
+        stop.wait(0.5)
+    return None
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from vehicle_adapters import zenoh_security
+    from vehicle_adapters.zenoh_link import DEFAULT_ENDPOINT
+
+    p = argparse.ArgumentParser(prog="mcl monitor",
+                                description="Watch a mission and its vehicle over Zenoh.")
+    p.add_argument("--zenoh", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
+                   help=f"the vehicle's endpoint (default {DEFAULT_ENDPOINT})")
+    p.add_argument("--name", default="auv", help="vehicle name in the keys (default auv)")
+    p.add_argument("--until-end", action="store_true",
+                   help="exit when the mission ends: status 0 if OK, 1 if FAIL")
+    p.add_argument("--timeout", type=float, metavar="SECONDS",
+                   help="give up after this many wall seconds (exit 3)")
+    p.add_argument("--plain", action="store_true",
+                   help="one line per change instead of a screen (default when not a terminal)")
+    zenoh_security.add_arguments(p, "observer")
+    args = p.parse_args(argv)
+    try:
+        security = zenoh_security.from_args(args, "observer")
+    except ValueError as exc:
+        p.error(str(exc))
+    if args.timeout is not None and not args.timeout > 0:
+        p.error("--timeout must be positive")
+    import zenoh
+
+    from vehicle_adapters.zenoh_link import keys, payload_text, zenoh_config
+
+    view = View(args.name, args.zenoh)
+    k = keys(args.name)
+    stop = threading.Event()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: stop.set())
+    session = _open(zenoh, zenoh_config(args.zenoh, "client", connect=True,
+                                        security=security, role="observer"),
+                    args.zenoh, args.timeout, stop)
+    if session is None:
+        return EXIT_TIMEOUT if not stop.is_set() else EXIT_OK
+    try:
+        prefix = k["telemetry"] + "/"
+        entities = [
+            session.declare_subscriber(k["status"],
+                                       lambda s: view.on_status(payload_text(s))),
+            session.declare_subscriber(prefix + "*", lambda s: view.on_telemetry(
+                str(s.key_expr)[len(prefix):], payload_text(s))),
+            session.liveliness().declare_subscriber(
+                k["alive"] + "/**", lambda s: view.on_alive(
+                    str(s.key_expr), s.kind == zenoh.SampleKind.PUT), history=True),
+        ]
+        for reply in session.get(k["status"], timeout=1.0):  # a mission already running
+            if reply.ok is not None:
+                view.on_status(payload_text(reply.ok))
+        plain = args.plain or not sys.stdout.isatty()
+        code = watch(view, args.until_end, args.timeout, plain, sys.stdout, stop)
+        for e in entities:
+            e.undeclare()
+        return code
+    finally:
+        session.close()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
