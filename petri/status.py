@@ -4,7 +4,8 @@ happened. A player observer keeps it up to date; adapters publish it (Zenoh:
 
 The status is one small JSON object (``v`` 1)::
 
-    {"v": 1, "mission": "dam_inspection", "run": "…", "t": 123.4, "status": "running",
+    {"v": 1, "mission": "dam_inspection", "run": "…", "t": 123.4, "clock": 123.5,
+     "status": "running",
      "running": [{"task": "WallInspection@31:9", "since": 100.2}], "done": 5, "total": 17,
      "behaviours": ["AchieveHeadDist", "StartCamera", "WallInspection"], "fired": 80,
      "last_event": {"t": 98.1, "event": "GoTo.reached"},
@@ -13,7 +14,8 @@ The status is one small JSON object (``v`` 1)::
 ``total`` counts the task calls of the mission (each ``Task@line:col`` once), ``done`` those
 that have started and are no longer running (ended, or never run because their block was
 aborted before them is not counted); a task in a loop counts once. ``t`` is mission time (the player's
-clock since the start).
+clock since the start) at the last change, ``clock`` the player's clock then (the vehicle's
+clock, when the player follows it): a monitor adds the vehicle clock's progress since.
 """
 
 from __future__ import annotations
@@ -65,6 +67,7 @@ class MissionStatus:
         self.started: set[str] = set()  # task calls that have fired a transition
         self.start: float | None = None
         self.t = 0.0
+        self.clock = 0.0  # the player's clock (the vehicle's) at mission time t
         self.last_event: dict[str, Any] | None = None
         self.last_action: dict[str, Any] | None = None
 
@@ -72,6 +75,7 @@ class MissionStatus:
         if self.start is None:
             self.start = record.t
         self.t = record.t - self.start
+        self.clock = record.t
         d = record.data
         if record.kind == "event":
             self.last_event = {"t": round(self.t, 3), "event": d["event"]}
@@ -101,7 +105,7 @@ class MissionStatus:
         """The status now (JSON-ready)."""
         snap = self.player.snapshot()
         return {"v": VERSION, "mission": self.mission, "run": self.run,
-                "t": round(self.t, 3), "status": snap["status"],
+                "t": round(self.t, 3), "clock": round(self.clock, 3), "status": snap["status"],
                 "running": [{"task": c, "since": round(s, 3)}
                             for c, s in sorted(self.since.items(),
                                                key=lambda kv: _source_order(kv[0]))],

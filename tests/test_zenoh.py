@@ -416,3 +416,40 @@ def test_vehicle_restarted_mid_mission_gets_no_stale_action(compiled: Any) -> No
         state = telemetry.last()
         assert state["actions"] == 0 and state["active"] == [], state
         assert restarted["proc"].poll() is None
+
+
+def test_monitor_on_a_terminal_redraws_one_screen() -> None:
+    import pty
+
+    endpoint = free_endpoint()
+    with vehicle_process(endpoint):
+        master, slave = pty.openpty()
+        proc = subprocess.Popen([sys.executable, "-m", "mcl.cli.run", "monitor", "--zenoh",
+                                 endpoint, "--timeout", "1.5"], cwd=REPO, stdin=subprocess.DEVNULL,
+                                stdout=slave, stderr=subprocess.PIPE)
+        os.close(slave)
+        chunks = []
+        try:
+            deadline = time.monotonic() + 30
+            while time.monotonic() < deadline:
+                try:
+                    chunk = os.read(master, 65536)
+                except OSError:  # the monitor closed the terminal
+                    break
+                if not chunk:
+                    break
+                chunks.append(chunk)
+            proc.wait(timeout=30)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait(timeout=5)
+            os.close(master)
+            if proc.stderr:
+                proc.stderr.close()
+    screen = b"".join(chunks).decode("utf-8", "replace")
+    frames = screen.split("\x1b[H\x1b[J")
+    assert len(frames) >= 3, screen  # redrawn in place, several times
+    assert "vehicle alive" in frames[-1] and "none reported yet" in frames[-1], frames[-1]
+    assert "navigator" in frames[-1]  # the vehicle's telemetry, before any mission
+    assert proc.returncode == 3  # --timeout ran out

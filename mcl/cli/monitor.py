@@ -97,12 +97,13 @@ class View:
             lines.append("mission: none reported yet (waiting for a player)")
         else:
             done, total = int(st.get("done", 0)), int(st.get("total", 0))
+            t = mission_time(st, clock)
             lines.append(f"mission {st.get('mission', '?')}  {str(st.get('status')).upper()}"
-                         f"  t = {st.get('t', 0):.1f} s  ({st.get('fired', 0)} firings)")
+                         f"  t = {t:.1f} s  ({st.get('fired', 0)} firings)")
             lines.append(f"  {bar(done, total, 30)} {done}/{total} tasks done")
             running = st.get("running") or []
             lines.append("  running: " + (", ".join(
-                f"{r['task']} ({st.get('t', 0) - r['since']:.0f} s)" for r in running)
+                f"{r['task']} ({t - r['since']:.0f} s)" for r in running)
                 if running else "—"))
             lines.append("  behaviours on: " + (", ".join(st.get("behaviours") or []) or "—"))
             ev, ac = st.get("last_event"), st.get("last_action")
@@ -139,6 +140,15 @@ class View:
         return (f"{st.get('t', 0):8.1f} s  {st.get('mission', '?')} "
                 f"{str(st.get('status')).upper()}  {st.get('done', 0)}/{st.get('total', 0)} "
                 f"tasks done  running: {running}  ({vstate})")
+
+
+def mission_time(status: dict[str, Any], clock: dict[str, Any]) -> float:
+    """Mission time now: the status's, plus the vehicle clock's progress since (while the
+    mission runs and the vehicle's clock is known)."""
+    t = float(status.get("t", 0))
+    if status.get("status") == "running" and clock and "clock" in status:
+        t += max(0.0, float(clock.get("t", 0)) - float(status["clock"]))
+    return t
 
 
 def bar(done: int, total: int, width: int) -> str:
