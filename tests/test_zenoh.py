@@ -453,3 +453,29 @@ def test_monitor_on_a_terminal_redraws_one_screen() -> None:
     assert "vehicle alive" in frames[-1] and "none reported yet" in frames[-1], frames[-1]
     assert "navigator" in frames[-1]  # the vehicle's telemetry, before any mission
     assert proc.returncode == 3  # --timeout ran out
+
+
+@pytest.mark.parametrize("kind", ["unix", "ipv6"])
+def test_other_endpoints_unix_socket_and_ipv6_loopback(kind: str, tmp_path: Any) -> None:
+    if kind == "unix":
+        endpoint = f"unixsock-stream/{tmp_path / 'auv.sock'}"
+    else:
+        if not socket.has_ipv6:
+            pytest.skip("no IPv6 on this machine")
+        with socket.socket(socket.AF_INET6) as s:
+            try:
+                s.bind(("::1", 0))
+            except OSError:
+                pytest.skip("no IPv6 loopback (::1) on this machine")
+            endpoint = f"tcp/[::1]:{s.getsockname()[1]}"
+    mission = tmp_path / "surface.mcl"
+    mission.write_text("MISSION surface { Surface() }\n", encoding="utf-8")
+    with vehicle_process(endpoint):
+        proc = mcl("run", str(mission), "--vehicle", f"zenoh:{endpoint}", "--quiet",
+                   "--log", str(tmp_path / "run.jsonl"))
+        try:
+            out, err = proc.communicate(timeout=60)
+        finally:
+            stop(proc)
+    assert proc.returncode == 0, out + err
+    assert "ended OK" in out
