@@ -47,6 +47,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/bench_player.py
 	$(BIN)/python bench/bench_vehicle.py
 	$(BIN)/python bench/bench_zenoh.py
+	$(BIN)/python bench/bench_mavlink.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .hypothesis

@@ -479,3 +479,28 @@ def test_other_endpoints_unix_socket_and_ipv6_loopback(kind: str, tmp_path: Any)
             stop(proc)
     assert proc.returncode == 0, out + err
     assert "ended OK" in out
+
+
+def test_vehicle_frozen_mid_mission_gives_link_lost_within_the_lease(compiled: Any) -> None:
+    import signal as signals
+
+    endpoint = free_endpoint()
+    frozen: dict[str, float] = {}
+    with vehicle_process(endpoint) as proc:
+        def freeze_on_achieved(record: Record, vehicle: ZenohVehicle) -> None:
+            if (record.kind == "event" and record.data["event"] == "AchieveHeadDist.achieved"
+                    and not frozen):
+                proc.send_signal(signals.SIGSTOP)  # alive but silent: a hung machine
+                frozen["at"] = time.monotonic()
+
+        try:
+            outcome, records, vehicle = run_over_zenoh(compiled, endpoint, freeze_on_achieved)
+        finally:
+            proc.send_signal(signals.SIGCONT)  # so that it can be terminated
+    assert frozen, "the mission never reached AchieveHeadDist.achieved"
+    assert vehicle.lost and vehicle.lost_at is not None
+    delay = vehicle.lost_at - frozen["at"]
+    # the transport lease is 1 s: the silence is noticed within it (plus scheduling slack)
+    assert delay <= 1.0 + 0.25, f"Link.lost {delay:.2f} s after the freeze"
+    assert [r.data["event"] for r in records if r.kind == "event"][-1] == "Link.lost"
+    assert outcome.status == "fail", outcome

@@ -54,6 +54,7 @@ DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 LEASE_MS = 1000  # transport lease: a silent peer is declared gone after this long
 MAX_EXTRAPOLATION = 0.25  # wall s: how far the player's clock runs past the last clock message
 MAX_POLL = 0.2  # wall s: the longest single wait in receive()
+CLOSE_TIMEOUT = 1.0  # wall s: the longest wait for a session to close
 CLIENT_CONNECT_MS = 2000  # a client (mcl monitor) gives up opening after this long
 
 
@@ -98,6 +99,22 @@ def zenoh_config(endpoint: str = DEFAULT_ENDPOINT, mode: str = "peer", *,
     if security:
         apply_security(config, security, role)
     return config
+
+
+def close_session(session: zenoh.Session, timeout: float = CLOSE_TIMEOUT) -> None:
+    """Close a session, waiting at most ``timeout`` wall seconds: a frozen peer never answers
+    the close, and Zenoh would wait 10 s for it."""
+    def close() -> None:
+        try:
+            session.close()  # type: ignore[no-untyped-call]
+        except zenoh.ZError as exc:
+            log.warning("Zenoh session closed uncleanly: %s", exc)
+
+    closer = threading.Thread(target=close, name="zenoh-close", daemon=True)
+    closer.start()
+    closer.join(timeout)
+    if closer.is_alive():
+        log.warning("Zenoh session not closed within %g s: leaving it", timeout)
 
 
 def payload_text(sample: zenoh.Sample) -> bytes:
@@ -193,10 +210,8 @@ class ZenohVehicle:
                 pass
         self._declared.clear()
         if self.session is not None:
-            try:
-                self.session.close()  # type: ignore[no-untyped-call]
-            finally:
-                self.session = None
+            close_session(self.session)
+            self.session = None
 
     # -- Zenoh callbacks (Zenoh's threads) --------------------------------------------------------
     def _on_event(self, sample: zenoh.Sample) -> None:
