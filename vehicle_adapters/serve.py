@@ -47,7 +47,7 @@ from vehicle.stack import DT, IctineuStack, StackConfig, parse_fault
 from .aal import ActionMessage, InvalidMessage
 from . import zenoh_security
 from .zenoh_security import Security
-from .zenoh_link import DEFAULT_ENDPOINT, LEASE_MS, keys, payload_text, zenoh_config
+from .zenoh_link import DEFAULT_ENDPOINT, LEASE_MS, close_session, keys, payload_text, zenoh_config
 
 log = logging.getLogger(__name__)
 
@@ -163,7 +163,7 @@ class VehicleServer:
             for e in reversed(entities):
                 e.undeclare()
         finally:
-            session.close()  # type: ignore[no-untyped-call]
+            close_session(session)
 
     def _loop(self, pub: dict[str, Any]) -> None:
         stack = self.stack

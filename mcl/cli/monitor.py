@@ -236,7 +236,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error("--timeout must be positive")
     import zenoh
 
-    from vehicle_adapters.zenoh_link import keys, payload_text, zenoh_config
+    from vehicle_adapters.zenoh_link import close_session, keys, payload_text, zenoh_config
 
     view = View(args.name, args.zenoh)
     k = keys(args.name)
@@ -268,7 +268,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             e.undeclare()
         return code
     finally:
-        session.close()
+        close_session(session)
 
 
 if __name__ == "__main__":
