@@ -1,0 +1,752 @@
+"""The simulated Ictineu served as an ArduSub-like MAVLink 2 vehicle (``mcl vehicle --mavlink``).
+
+    mcl vehicle --mavlink URL [--speed 10] [--seed 1] [--inject leak@600] [--no-wait]
+                [--gcs-timeout 3] [--pilot-timeout 3] [--signing-key FILE]
+                [--require-signing] [--log-level WARNING]
+
+``URL`` is written as pymavlink writes it: ``udpout:HOST:PORT`` (send to a ground station
+listening there, e.g. ``mcl run ... --vehicle mavlink:udpin:127.0.0.1:14550``), ``udpin:``
+or ``udp:HOST:PORT`` (listen), ``tcp:HOST:PORT`` (connect) or ``tcpin:HOST:PORT`` (listen).
+A bad URL, an unusable address or an unreadable key file is a one-line error, exit status 2.
+When ready the vehicle prints ``vehicle auv ready on URL``; on SIGTERM or SIGINT it stops and
+prints its survey summary (path length, wall area imaged, against the simulation's truth), its
+command counts and, with signing, its signing counts.
+
+Identity. MAVLink 2 only, dialect ardupilotmega; system 1, component 1 (AUTOPILOT1). The ground
+station it obeys is system 255 (ArduSub's ``SYSID_MYGCS``).
+
+Time. The simulated clock starts at the first HEARTBEAT from the ground station (at once with
+``--no-wait``) and then runs at ``--speed`` times wall time, one stack tick (``DT`` = 0.05 s) at
+a time, as ``mcl vehicle --zenoh`` does (:mod:`vehicle_adapters.serve`). Every ``time_boot_ms``
+carries the simulated clock (ms since it started), so a ground station follows the vehicle's
+clock; telemetry rates are rates of that clock (as ArduPilot's SITL with a speed-up), at most one
+message of each kind per tick. HEARTBEAT also goes out at least once per wall second (also while
+the clock waits for a ground station). A stack tick costs about 0.5 ms here, so the vehicle
+keeps up with ``--speed`` up to about 40 on a 2-core machine shared with the player; asked for
+more, its clock falls behind wall time x speed (the player follows the clock it sends).
+
+Heartbeat. ``type`` MAV_TYPE_SUBMARINE, ``autopilot`` MAV_AUTOPILOT_ARDUPILOTMEGA, ``base_mode``
+CUSTOM_MODE_ENABLED | MANUAL_INPUT_ENABLED | STABILIZE_ENABLED (not in MANUAL/ACRO) |
+GUIDED_ENABLED (GUIDED) | SAFETY_ARMED (armed); ``custom_mode`` the ArduSub mode number
+(STABILIZE 0, ACRO 1, ALT_HOLD 2, AUTO 3, GUIDED 4, CIRCLE 7, SURFACE 9, POSHOLD 16, MANUAL 19;
+it boots in MANUAL, disarmed); ``system_status`` STANDBY (disarmed), ACTIVE (armed), CRITICAL
+(any failsafe or alarm active).
+
+Telemetry by default (Hz of the simulated clock; changed by MAV_CMD_SET_MESSAGE_INTERVAL, read
+by MAV_CMD_GET_MESSAGE_INTERVAL, one sent at once by MAV_CMD_REQUEST_MESSAGE): HEARTBEAT 1,
+SYS_STATUS 1, SYSTEM_TIME 1, ATTITUDE 10, LOCAL_POSITION_NED 10, GLOBAL_POSITION_INT 4,
+SCALED_PRESSURE (inside the vessel: the housing's pressure and temperature) 1, SCALED_PRESSURE2
+(the depth sensor) 4, DISTANCE_SENSOR 5, VFR_HUD 4, BATTERY_STATUS 1. Position and velocity are
+the navigator's estimate (paper §4), not the truth. The local NED frame is the simulation's world
+frame: x towards the wall (the wall is x = 0, the vehicle works at x < 0), y along the wall,
+z depth (down), yaw 0 facing the wall. GLOBAL_POSITION_INT places that origin at
+:data:`ORIGIN_LAT`, :data:`ORIGIN_LON` (flat earth).
+
+DISTANCE_SENSOR is the sonar wall tracker (paper §5): id 1, type MAV_DISTANCE_SENSOR_ULTRASOUND,
+orientation MAV_SENSOR_ROTATION_CUSTOM (100) with ``quaternion`` the rotation about z from the
+body frame to the wall's normal (the bearing of the closest point of the wall relative to the
+heading: the heading towards the wall is yaw + that bearing), ``current_distance`` the
+perpendicular distance to the wall in cm, ``min_distance`` 30, ``max_distance`` 5000; while the
+wall is not tracked ``current_distance`` is 5001 (max + 1: MAVLink's "nothing detected").
+
+Commands. Every COMMAND_LONG (or COMMAND_INT) for system 1 gets a COMMAND_ACK: MAV_CMD_DO_SET_MODE
+(param2 the mode number; SET_MODE messages too, acknowledged with command 11 as ArduPilot does),
+MAV_CMD_COMPONENT_ARM_DISARM (arming FAILED while an internal temperature or pressure failsafe is
+active, unless forced with param2 = 21196), MAV_CMD_SET_MESSAGE_INTERVAL, GET_MESSAGE_INTERVAL,
+REQUEST_MESSAGE, MAV_CMD_IMAGE_START_CAPTURE / IMAGE_STOP_CAPTURE (the camera, the stack's
+StartCamera), MAV_CMD_LOGGING_START / LOGGING_STOP (the stack's StartLogs); AUTO and CIRCLE (no
+mission here) FAILED; any other command UNSUPPORTED.
+
+Modes (armed; disarmed the vehicle only holds still, an approximation of idle thrusters):
+GUIDED and POSHOLD hold the position where they started; in GUIDED SET_POSITION_TARGET_LOCAL_NED
+(MAV_FRAME_LOCAL_NED) moves the hold point: position (any of x, y, z; the others kept) and yaw go
+to the stack's GoTo behaviour (its own position controller); velocities (vx, vy, vz world, with
+yaw or yaw_rate) are held for 3 s of simulated time, as ArduSub's guided velocity timeout.
+Setpoints outside GUIDED, or disarmed, or in another frame are ignored (ArduSub does so) and
+counted. SURFACE rises to the surface (the stack's Surface behaviour) and stays in SURFACE
+there. MANUAL, STABILIZE, ACRO and ALT_HOLD fly MANUAL_CONTROL (x surge, y sway, z 500 neutral,
+r yaw rate) as velocity demands.
+
+Alarms (the stack's housing sensors, faults from ``--inject FAULT@SECONDS``): STATUSTEXT
+:data:`LEAK_TEXT` ("Leak Detected", ArduSub's text), :data:`TEMPERATURE_TEXT` or
+:data:`PRESSURE_TEXT` ("Internal temperature critical!", "Internal pressure critical!", ArduSub's
+texts; above 50 degC and 1.5 bar, the stack's Alarms thresholds), severity CRITICAL, at once and
+every 5 s of simulated time while it lasts; HEARTBEAT system_status CRITICAL. ArduSub's default
+leak action is to warn only: the mission decides (its Alarms task surfaces).
+
+Failsafes, on WALL time (they watch the real link): ground station — no HEARTBEAT from system
+255 for ``--gcs-timeout`` s after one has been seen (ArduSub FS_GCS_TIMEOUT) — and pilot input —
+no MANUAL_CONTROL for ``--pilot-timeout`` s while armed (FS_PILOT_TIMEOUT). While armed either
+switches to SURFACE (ArduSub's FS_GCS_ENABLE = surface) with STATUSTEXT "MYGCS: 255, heartbeat
+lost" (WARNING) or "Lost manual control" (CRITICAL), ArduSub's texts. The vehicle stays in
+SURFACE until a ground station sets another mode; a failsafe re-arms when its input comes back.
+As ArduSub's manual warns, any heartbeat from system 255 counts: MAVProxy routing between player
+and vehicle sends its own, so through MAVProxy (without required signing, which rejects its
+unsigned heartbeats) the pilot-input failsafe is the one that notices a player gone.
+
+Signing (:mod:`vehicle_adapters.signing`): ``--signing-key FILE`` or ``$MCL_MAVLINK_KEY``
+(64 hex digits, or a passphrase hashed as MAVProxy's ``signing setup``) signs everything sent
+and rejects badly signed messages; ``--require-signing`` also rejects unsigned ones (except
+RADIO_STATUS, as ArduPilot). The counts go out with every HEARTBEAT as NAMED_VALUE_INT
+``SIG_OK`` (good signatures), ``SIG_UNSIGN`` (unsigned rejected), ``SIG_BAD`` (bad signatures
+rejected), and are printed at exit. The signing timestamp is kept in
+``$MCL_STATE_DIR`` (default ``~/.local/state/mcl``), saved every 5 s and at exit.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import logging
+import math
+import os
+import queue
+import re
+import signal
+import socket
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any
+
+os.environ["MAVLINK20"] = "1"  # before pymavlink picks its dialect: MAVLink 2 only
+
+from pymavlink import mavutil  # noqa: E402
+
+import behaviours as bh  # noqa: E402
+from behaviours.base import clamp, wrap  # noqa: E402
+from vehicle.stack import DT, IctineuStack, StackConfig, parse_fault  # noqa: E402
+
+from . import signing  # noqa: E402
+from .aal import ActionMessage  # noqa: E402
+
+log = logging.getLogger(__name__)
+mav = mavutil.mavlink
+
+SYSID, COMPID = 1, mav.MAV_COMP_ID_AUTOPILOT1
+GCS_SYSID = 255  # ArduSub's SYSID_MYGCS
+ACCEPTED, DENIED, FAILED, UNSUPPORTED = (int(mav.MAV_RESULT_ACCEPTED), int(mav.MAV_RESULT_DENIED),
+                                         int(mav.MAV_RESULT_FAILED),
+                                         int(mav.MAV_RESULT_UNSUPPORTED))
+MODES = {"STABILIZE": 0, "ACRO": 1, "ALT_HOLD": 2, "AUTO": 3, "GUIDED": 4, "CIRCLE": 7,
+         "SURFACE": 9, "POSHOLD": 16, "MANUAL": 19}
+MODE_NAMES = {n: name for name, n in MODES.items()}
+PILOT_MODES = {MODES[m] for m in ("MANUAL", "STABILIZE", "ACRO", "ALT_HOLD")}
+HOLD_MODES = {MODES["GUIDED"], MODES["POSHOLD"]}
+UNAVAILABLE_MODES = {MODES["AUTO"], MODES["CIRCLE"]}  # no mission, no circle here
+FORCE_ARM = 21196  # param2 of MAV_CMD_COMPONENT_ARM_DISARM that skips the arming checks
+
+LEAK_TEXT = "Leak Detected"
+TEMPERATURE_TEXT = "Internal temperature critical!"
+PRESSURE_TEXT = "Internal pressure critical!"
+PILOT_TEXT = "Lost manual control"
+GCS_TEXT = f"MYGCS: {GCS_SYSID}, heartbeat lost"
+ALARM_REPEAT = 5.0  # simulated s between repeats of an alarm's STATUSTEXT
+MAX_TEMPERATURE = 50.0  # degC (FS_TEMP_MAX; the stack's Alarms default)
+MAX_PRESSURE = 1.5  # bar inside the vessel (FS_PRESS_MAX; the stack's Alarms default)
+
+STREAMS = {  # message: default rate, Hz of the simulated clock (ArduSub's usual rates)
+    "HEARTBEAT": 1.0, "SYS_STATUS": 1.0, "SYSTEM_TIME": 1.0, "ATTITUDE": 10.0,
+    "LOCAL_POSITION_NED": 10.0, "GLOBAL_POSITION_INT": 4.0, "SCALED_PRESSURE": 1.0,
+    "SCALED_PRESSURE2": 4.0, "DISTANCE_SENSOR": 5.0, "VFR_HUD": 4.0, "BATTERY_STATUS": 1.0,
+}
+SONAR_MIN_CM, SONAR_MAX_CM = 30, 5000
+ORIGIN_LAT, ORIGIN_LON = 41.9850, 2.6170  # deg: the local frame's origin (near Pasteral dam)
+EARTH_RADIUS = 6_378_137.0  # m
+WATER_DENSITY = 997.0  # kg/m3, fresh water (ArduSub's default)
+SURFACE_PRESSURE_HPA = 1013.25
+GUIDED_VELOCITY_TIMEOUT = 3.0  # simulated s a velocity setpoint lasts
+PILOT_SPEED, PILOT_YAW_RATE = 0.4, 0.3  # m/s and rad/s at full stick
+MAX_SLEEP = 0.01  # wall s: the loop looks at its inbox at least this often
+SAVE_PERIOD = 5.0  # wall s between saves of the signing timestamp
+MOTION = ("GoTo", "WallInspection", "AchieveHeadDist", "Surface", "Velocity")
+_URL = re.compile(r"(udpin|udpout|udp|tcp|tcpin):([^:\s]+):(\d{1,5})")
+
+
+class Velocity(bh.Behaviour):
+    """Velocity demands from outside the stack: guided velocity setpoints (world frame, for a
+    few seconds) or the pilot's sticks (body frame). ArduSub's own, so not in the task library."""
+
+    name = "Velocity"
+    drives = ("x", "y", "z", "yaw")
+
+    def on_update(self, p: bh.Perception) -> bh.Response:
+        since = self.param("t", p.t)
+        if "timeout" in self.params and p.t - since > self.param("timeout", 0.0):
+            return bh.Response({dof: 0.0 for dof in bh.DOFS})
+        vx, vy, vz = (self.param(k, 0.0) for k in ("vx", "vy", "vz"))
+        if self.params.get("frame") == "world":  # world x, y into the body frame
+            c, s = math.cos(p.psi), math.sin(p.psi)
+            vx, vy = c * vx + s * vy, -s * vx + c * vy
+        if "yaw" in self.params:  # hold a heading rather than a rate
+            rate = clamp(0.4 * wrap(math.radians(self.param("yaw", 0.0)) - p.psi), 0.3)
+        else:
+            rate = self.param("yaw_rate", 0.0)
+        return bh.Response({"x": vx, "y": vy, "z": vz, "yaw": rate})
+
+
+class Streams:
+    """When each telemetry message is due, on the simulated clock; SET_MESSAGE_INTERVAL."""
+
+    def __init__(self, rates: dict[str, float]) -> None:
+        self.ids = {getattr(mav, f"MAVLINK_MSG_ID_{name}"): name for name in rates}
+        self.default = {name: 1.0 / hz for name, hz in rates.items()}
+        self.interval: dict[str, float | None] = dict(self.default)
+        self.next = {name: 0.0 for name in rates}
+
+    def set(self, msg_id: int, interval_us: float) -> bool:
+        """MAVLink's rule: -1 stops it, 0 restores the default, > 0 sets the interval."""
+        name = self.ids.get(msg_id)
+        if name is None:
+            return False
+        if interval_us < 0:
+            self.interval[name] = None
+        else:
+            self.interval[name] = self.default[name] if interval_us == 0 else interval_us / 1e6
+        return True
+
+    def get_us(self, msg_id: int) -> int:
+        interval = self.interval.get(self.ids.get(msg_id, ""))
+        return -1 if interval is None else round(interval * 1e6)
+
+    def due(self, t: float) -> list[str]:
+        out = []
+        for name, interval in self.interval.items():
+            if interval is not None and t + 1e-9 >= self.next[name]:
+                out.append(name)
+                # keep the cadence, but never send a burst after a pause
+                self.next[name] = max(self.next[name] + interval, t + interval / 2)
+        return out
+
+
+def check_url(url: str) -> str:
+    """The URL if pymavlink can use it and its host resolves; ValueError saying why not."""
+    m = _URL.fullmatch(url)
+    if m is None:
+        raise ValueError(f"--mavlink {url!r}: expected udpout:HOST:PORT, udpin:HOST:PORT, "
+                         "tcp:HOST:PORT or tcpin:HOST:PORT (e.g. udpout:127.0.0.1:14550)")
+    if not 0 < int(m[3]) < 65536:
+        raise ValueError(f"--mavlink {url!r}: port {m[3]} is not in 1..65535")
+    try:
+        socket.getaddrinfo(m[2], int(m[3]))
+    except OSError as exc:
+        raise ValueError(f"--mavlink {url!r}: host {m[2]!r}: {exc.strerror or exc}") from None
+    return url
+
+
+class ArduSubVehicle:
+    """The simulated stack behind an ArduSub-like MAVLink endpoint. :meth:`run` blocks until
+    ``stop`` is set. One reader thread queues what arrives; the loop applies it between ticks."""
+
+    def __init__(self, url: str, *, speed: float = 10.0, seed: int = 1,
+                 faults: Iterable[tuple[str, float]] = (), gcs_timeout: float = 3.0,
+                 pilot_timeout: float = 3.0, wait_for_gcs: bool = True,
+                 signing_key: bytes | None = None, require_signing: bool = False,
+                 stop: threading.Event | None = None,
+                 ready: threading.Event | None = None) -> None:
+        if not speed > 0:
+            raise ValueError("speed must be positive")
+        self.url, self.speed = url, float(speed)
+        self.gcs_timeout, self.pilot_timeout = gcs_timeout, pilot_timeout
+        self.wait_for_gcs = wait_for_gcs
+        self.signing_key, self.require_signing = signing_key, require_signing
+        self.stop = stop or threading.Event()
+        self.ready = ready or threading.Event()
+        self.stack = IctineuStack(StackConfig(seed=seed, faults=list(faults)))
+        self.stack.behaviours["Velocity"] = Velocity()
+        self.streams = Streams(STREAMS)
+        self.mode, self.armed = MODES["MANUAL"], False
+        self.conn: Any = None
+        self.signing: signing.SigningState | None = None
+        self._inbox: queue.Queue[Any] = queue.Queue()
+        self._send_lock = threading.Lock()
+        self._seq = 0
+        self.gcs_heard: float | None = None  # wall (monotonic) time of the last GCS heartbeat
+        self.pilot_heard: float | None = None  # ... of the last MANUAL_CONTROL
+        self.armed_at = 0.0
+        self.failsafe = {"gcs": False, "pilot": False}
+        self.alarm_sent: dict[str, float] = {}  # alarm -> simulated time of its last text
+        self.counts = {"commands": 0, "setpoints": 0, "setpoints_ignored": 0}
+        self._last_heartbeat = -math.inf  # wall
+
+    # -- sending (serialised) -------------------------------------------------------------------
+    def send(self, name: str, *args: Any, **kwargs: Any) -> None:
+        """Send one message (``name`` as in pymavlink's ``<name>_send``)."""
+        with self._send_lock:
+            getattr(self.conn.mav, f"{name}_send")(*args, **kwargs)
+
+    def text(self, severity: int, text: str, *, repeat: bool = False) -> None:
+        log.log(logging.INFO if repeat else logging.WARNING, "STATUSTEXT %s", text)
+        self.send("statustext", severity, text.encode("ascii")[:50])
+
+    def ack(self, command: int, result: int, target: tuple[int, int] = (GCS_SYSID, 0)) -> None:
+        self.send("command_ack", command, result, 0, 0, target[0], target[1])
+
+    @property
+    def time_boot_ms(self) -> int:
+        return int(round(self.stack.t * 1000))
+
+    # -- the run ----------------------------------------------------------------------------------
+    def run(self) -> None:
+        chatter = io.StringIO()  # pymavlink prints its retries; keep stdout for our lines
+        try:
+            with contextlib.redirect_stdout(chatter):
+                self.conn = mavutil.mavlink_connection(
+                    self.url, source_system=SYSID, source_component=COMPID,
+                    dialect="ardupilotmega")
+        finally:
+            log.debug("pymavlink: %s", chatter.getvalue().strip())
+        try:
+            if self.signing_key is not None:
+                self.signing = signing.enable(
+                    self.conn, self.signing_key, require=self.require_signing, link_id=0,
+                    timestamp_file=signing.default_timestamp_file(self.signing_key, "vehicle"))
+            reader = threading.Thread(target=self._read, name="mavlink-reader", daemon=True)
+            reader.start()
+            self.ready.set()
+            log.info("vehicle ready on %s", self.url)
+            try:
+                self._loop()
+            finally:
+                self.stop.set()
+                reader.join(timeout=2.0)
+                if self.signing is not None:
+                    with self._send_lock:
+                        self.signing.save()
+        finally:
+            self.conn.close()
+
+    def _read(self) -> None:
+        """The reader thread: every message received goes into the inbox, nothing else."""
+        while not self.stop.is_set():
+            try:
+                msg = self.conn.recv_match(blocking=True, timeout=0.05)
+            except (OSError, mavutil.mavlink.MAVError) as exc:
+                log.warning("receive failed: %s", exc)
+                self.stop.wait(0.05)
+                continue
+            if msg is not None and msg.get_type() != "BAD_DATA":
+                self._inbox.put(msg)
+
+    def _loop(self) -> None:
+        stack = self.stack
+        next_save = time.monotonic() + SAVE_PERIOD
+        while not self.stop.is_set():  # paused at t = 0 until a ground station is heard
+            self._handle_inbox()
+            self._heartbeat_floor()
+            if self.gcs_heard is not None or not self.wait_for_gcs:
+                break
+            self.stop.wait(MAX_SLEEP)
+        wall0, t0 = time.monotonic(), stack.t
+        while not self.stop.is_set():
+            self._handle_inbox()
+            now = time.monotonic()
+            self._check_failsafes(now)
+            if stack.t + DT <= t0 + (now - wall0) * self.speed:  # a tick is due
+                for event in stack.due(stack.t + DT):
+                    log.debug("stack event %s", event.event)
+                self._check_alarms()
+                for name in self.streams.due(stack.t):
+                    self._send_stream(name)
+            else:
+                due_at = wall0 + (stack.t + DT - t0) / self.speed
+                time.sleep(min(MAX_SLEEP, max(0.0, due_at - now)))
+            self._heartbeat_floor()
+            if self.signing is not None and now >= next_save:
+                with self._send_lock:
+                    self.signing.save()
+                next_save = now + SAVE_PERIOD
+
+    def _heartbeat_floor(self) -> None:
+        if time.monotonic() - self._last_heartbeat >= 1.0:
+            self._send_stream("HEARTBEAT")
+
+    # -- what arrives ---------------------------------------------------------------------------
+    def _handle_inbox(self) -> None:
+        while True:
+            try:
+                msg = self._inbox.get_nowait()
+            except queue.Empty:
+                return
+            handler = self._handlers.get(msg.get_type())
+            if handler is not None:
+                handler(self, msg)
+
+    def _on_heartbeat(self, msg: Any) -> None:
+        if msg.get_srcSystem() == GCS_SYSID and msg.type == mav.MAV_TYPE_GCS:
+            self.gcs_heard = time.monotonic()
+            if self.failsafe["gcs"]:
+                log.warning("ground station is back")
+            self.failsafe["gcs"] = False
+
+    def _on_manual_control(self, msg: Any) -> None:
+        if msg.target != SYSID:
+            return
+        self.pilot_heard = time.monotonic()
+        self.failsafe["pilot"] = False
+        if self.armed and self.mode in PILOT_MODES:
+            sticks = {"vx": msg.x / 1000 * PILOT_SPEED, "vy": msg.y / 1000 * PILOT_SPEED,
+                      "vz": -(msg.z - 500) / 500 * PILOT_SPEED,
+                      "yaw_rate": msg.r / 1000 * PILOT_YAW_RATE}
+            self._action("configure", "Velocity", {"frame": "body", **sticks})
+
+    def _on_set_mode(self, msg: Any) -> None:
+        if msg.target_system != SYSID:
+            return
+        result = self.set_mode(msg.custom_mode)
+        self.ack(mav.MAVLINK_MSG_ID_SET_MODE, result, (msg.get_srcSystem(), msg.get_srcComponent()))
+
+    def _on_command(self, msg: Any) -> None:
+        if msg.target_system not in (0, SYSID) or msg.target_component not in (0, COMPID):
+            return
+        self.counts["commands"] += 1
+        params = [msg.param1, msg.param2, msg.param3, msg.param4]
+        try:
+            result = self.command(msg.command, params)
+        except (ValueError, OverflowError):  # NaN or out-of-range parameters
+            result = DENIED
+        self.ack(msg.command, result, (msg.get_srcSystem(), msg.get_srcComponent()))
+        if msg.command == mav.MAV_CMD_REQUEST_MESSAGE and result == ACCEPTED:
+            self._send_stream(self.streams.ids[int(params[0])])
+        if msg.command == mav.MAV_CMD_GET_MESSAGE_INTERVAL and result == ACCEPTED:
+            self.send("message_interval", int(params[0]), self.streams.get_us(int(params[0])))
+
+    def _on_setpoint(self, msg: Any) -> None:
+        if msg.target_system != SYSID:
+            return
+        self.counts["setpoints"] += 1
+        if not (self.armed and self.mode == MODES["GUIDED"]
+                and msg.coordinate_frame == mav.MAV_FRAME_LOCAL_NED):
+            self.counts["setpoints_ignored"] += 1  # as ArduSub: only in GUIDED, armed
+            return
+        self.guided_setpoint(msg.type_mask, (msg.x, msg.y, msg.z), (msg.vx, msg.vy, msg.vz),
+                             msg.yaw, msg.yaw_rate)
+
+    _handlers: dict[str, Callable[[ArduSubVehicle, Any], None]] = {
+        "HEARTBEAT": _on_heartbeat, "MANUAL_CONTROL": _on_manual_control,
+        "SET_MODE": _on_set_mode, "COMMAND_LONG": _on_command, "COMMAND_INT": _on_command,
+        "SET_POSITION_TARGET_LOCAL_NED": _on_setpoint,
+    }
+
+    # -- commands, modes and setpoints ----------------------------------------------------------
+    def command(self, command: int, p: list[float]) -> int:
+        """Carry out one command; its MAV_RESULT."""
+        if command == mav.MAV_CMD_DO_SET_MODE:
+            return self.set_mode(int(p[1]))
+        if command == mav.MAV_CMD_COMPONENT_ARM_DISARM:
+            return self.arm(p[0] == 1, force=int(p[1]) == FORCE_ARM)
+        if command == mav.MAV_CMD_SET_MESSAGE_INTERVAL:
+            ok = self.streams.set(int(p[0]), p[1])
+            return ACCEPTED if ok else FAILED
+        if command in (mav.MAV_CMD_GET_MESSAGE_INTERVAL, mav.MAV_CMD_REQUEST_MESSAGE):
+            ok = int(p[0]) in self.streams.ids
+            return ACCEPTED if ok else FAILED
+        switches = {mav.MAV_CMD_IMAGE_START_CAPTURE: ("enable", "StartCamera"),
+                    mav.MAV_CMD_IMAGE_STOP_CAPTURE: ("disable", "StartCamera"),
+                    mav.MAV_CMD_LOGGING_START: ("enable", "StartLogs"),
+                    mav.MAV_CMD_LOGGING_STOP: ("disable", "StartLogs")}
+        if command in switches:
+            kind, behaviour = switches[command]
+            if (kind == "enable") != self.stack.behaviours[behaviour].active:
+                self._action(kind, behaviour, {})
+            return ACCEPTED
+        return UNSUPPORTED
+
+    def set_mode(self, number: int) -> int:
+        if number not in MODE_NAMES or number in UNAVAILABLE_MODES:
+            return FAILED
+        log.info("mode %s", MODE_NAMES[number])
+        self.mode = number
+        self._apply_mode()
+        return ACCEPTED
+
+    def arm(self, arm: bool, *, force: bool = False) -> int:
+        if arm and not self.armed:
+            h = self.stack.housing
+            if not force and (h["temperature"] > MAX_TEMPERATURE or h["pressure"] > MAX_PRESSURE):
+                return FAILED  # ArduSub's arming checks
+            self.armed_at = time.monotonic()
+            self.failsafe["pilot"] = False
+        if arm != self.armed:
+            self.armed = arm
+            self._apply_mode()
+        return ACCEPTED
+
+    def _apply_mode(self) -> None:
+        """Switch the stack's behaviours to what the mode does (nothing moves disarmed)."""
+        for name in MOTION:
+            if self.stack.behaviours[name].active:
+                self._action("disable", name, {})
+        if not self.armed:
+            return
+        p = self.stack.perception()
+        if self.mode == MODES["SURFACE"]:
+            self._action("enable", "Surface", {})
+        elif self.mode in HOLD_MODES:
+            self._action("enable", "GoTo", {"x": p.x, "y": p.y, "z": p.z,
+                                            "yaw": math.degrees(p.psi), "tolerance": 0.0})
+        elif self.mode in PILOT_MODES:
+            self._action("enable", "Velocity", {"frame": "body"})
+
+    def guided_setpoint(self, mask: int, position: tuple[float, float, float],
+                        velocity: tuple[float, float, float], yaw: float,
+                        yaw_rate: float) -> None:
+        """SET_POSITION_TARGET_LOCAL_NED in GUIDED: a position (GoTo) or a velocity."""
+        bits = mav.POSITION_TARGET_TYPEMASK_X_IGNORE, mav.POSITION_TARGET_TYPEMASK_Y_IGNORE, \
+            mav.POSITION_TARGET_TYPEMASK_Z_IGNORE
+        vbits = mav.POSITION_TARGET_TYPEMASK_VX_IGNORE, mav.POSITION_TARGET_TYPEMASK_VY_IGNORE, \
+            mav.POSITION_TARGET_TYPEMASK_VZ_IGNORE
+        use_yaw = not mask & mav.POSITION_TARGET_TYPEMASK_YAW_IGNORE
+        use_rate = not mask & mav.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
+        values = [*position, *velocity, yaw, yaw_rate]
+        if not all(math.isfinite(v) for v in values):
+            self.counts["setpoints_ignored"] += 1
+            return
+        goto = self.stack.behaviours["GoTo"]
+        if all(mask & b for b in bits) and not all(mask & b for b in vbits):
+            params: dict[str, Any] = {"frame": "world", "t": self.stack.t,
+                                      "timeout": GUIDED_VELOCITY_TIMEOUT}
+            params.update({k: v for k, v, b in zip(("vx", "vy", "vz"), velocity, vbits)
+                           if not mask & b})
+            if use_yaw:
+                params["yaw"] = math.degrees(yaw)
+            elif use_rate:
+                params["yaw_rate"] = yaw_rate
+            if goto.active:
+                self._action("disable", "GoTo", {})
+            self._action("enable", "Velocity", params)
+            return
+        p = self.stack.perception()
+        target = dict(goto.params) if goto.active else {
+            "x": p.x, "y": p.y, "z": p.z, "yaw": math.degrees(p.psi)}
+        target.update({k: v for k, v, b in zip("xyz", position, bits) if not mask & b})
+        if use_yaw:
+            target["yaw"] = math.degrees(yaw)
+        target["tolerance"] = 0.0
+        if self.stack.behaviours["Velocity"].active:
+            self._action("disable", "Velocity", {})
+        self._action("enable", "GoTo", target)
+
+    def _action(self, kind: str, behaviour: str, params: dict[str, Any]) -> None:
+        self._seq += 1
+        t = self.stack.t
+        self.stack.on_action(ActionMessage(self._seq, t, "ardusub", MODE_NAMES[self.mode], kind,
+                                           behaviour, params), t)
+
+    # -- failsafes and alarms --------------------------------------------------------------------
+    def _check_failsafes(self, now: float) -> None:
+        gcs, pilot = self.gcs_heard, max(self.pilot_heard or 0.0, self.armed_at)
+        if gcs is not None and not self.failsafe["gcs"] and now - gcs > self.gcs_timeout:
+            self.failsafe["gcs"] = True
+            self.text(mav.MAV_SEVERITY_WARNING, GCS_TEXT)
+            if self.armed:
+                self.set_mode(MODES["SURFACE"])
+        if self.armed and not self.failsafe["pilot"] and now - pilot > self.pilot_timeout:
+            self.failsafe["pilot"] = True
+            self.text(mav.MAV_SEVERITY_CRITICAL, PILOT_TEXT)
+            self.set_mode(MODES["SURFACE"])
+
+    def alarms(self) -> dict[str, bool]:
+        h = self.stack.housing
+        return {LEAK_TEXT: bool(h["leak"]), TEMPERATURE_TEXT: h["temperature"] > MAX_TEMPERATURE,
+                PRESSURE_TEXT: h["pressure"] > MAX_PRESSURE}
+
+    def _check_alarms(self) -> None:
+        t = self.stack.t
+        for text, on in self.alarms().items():
+            if not on:
+                self.alarm_sent.pop(text, None)
+            elif t - self.alarm_sent.get(text, -math.inf) >= ALARM_REPEAT - 1e-9:
+                self.text(mav.MAV_SEVERITY_CRITICAL, text, repeat=text in self.alarm_sent)
+                self.alarm_sent[text] = t
+
+    # -- telemetry ------------------------------------------------------------------------------
+    def _send_stream(self, name: str) -> None:
+        getattr(self, f"_send_{name.lower()}")()
+
+    def _send_heartbeat(self) -> None:
+        self._last_heartbeat = time.monotonic()
+        base = mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mav.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
+        if self.mode not in (MODES["MANUAL"], MODES["ACRO"]):
+            base |= mav.MAV_MODE_FLAG_STABILIZE_ENABLED
+        if self.mode == MODES["GUIDED"]:
+            base |= mav.MAV_MODE_FLAG_GUIDED_ENABLED
+        if self.armed:
+            base |= mav.MAV_MODE_FLAG_SAFETY_ARMED
+        critical = any(self.failsafe.values()) or any(self.alarms().values())
+        status = (mav.MAV_STATE_CRITICAL if critical else
+                  mav.MAV_STATE_ACTIVE if self.armed else mav.MAV_STATE_STANDBY)
+        self.send("heartbeat", mav.MAV_TYPE_SUBMARINE, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, base,
+                  self.mode, status)
+        if self.signing is not None:
+            for name, value in (("SIG_OK", self.signing.accepted_signed),
+                                ("SIG_UNSIGN", self.signing.rejected_unsigned),
+                                ("SIG_BAD", self.signing.rejected_bad)):
+                self.send("named_value_int", self.time_boot_ms, name.encode(), value)
+
+    def _send_sys_status(self) -> None:
+        sensors = (mav.MAV_SYS_STATUS_SENSOR_3D_GYRO | mav.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+                   | mav.MAV_SYS_STATUS_SENSOR_3D_MAG | mav.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+                   | mav.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS | mav.MAV_SYS_STATUS_AHRS
+                   | mav.MAV_SYS_STATUS_SENSOR_BATTERY)
+        health = sensors
+        if self.alarms()[PRESSURE_TEXT]:
+            health &= ~mav.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+        volts, amps, remaining = self._battery()
+        self.send("sys_status", sensors, sensors, health, 200, volts, amps, remaining,
+                  0, 0, 0, 0, 0, 0)
+
+    def _battery(self) -> tuple[int, int, int]:
+        """mV, cA, % of a 4S pack that lasts about two hours."""
+        remaining = max(0.0, 100.0 - self.stack.t / 72.0)
+        return int(14000 + 20 * remaining), 500 if self.armed else 50, int(remaining)
+
+    def _send_system_time(self) -> None:
+        self.send("system_time", int(time.time() * 1e6), self.time_boot_ms)
+
+    def _send_attitude(self) -> None:
+        p = self.stack.perception()
+        self.send("attitude", self.time_boot_ms, 0.0, 0.0, wrap(p.psi), 0.0, 0.0, p.r)
+
+    def _world_velocity(self, p: bh.Perception) -> tuple[float, float, float]:
+        c, s = math.cos(p.psi), math.sin(p.psi)
+        return c * p.u - s * p.v, s * p.u + c * p.v, p.w
+
+    def _send_local_position_ned(self) -> None:
+        p = self.stack.perception()
+        self.send("local_position_ned", self.time_boot_ms, p.x, p.y, p.z,
+                  *self._world_velocity(p))
+
+    def _send_global_position_int(self) -> None:
+        p = self.stack.perception()
+        lat = ORIGIN_LAT + math.degrees(p.x / EARTH_RADIUS)
+        lon = ORIGIN_LON + math.degrees(p.y / (EARTH_RADIUS * math.cos(math.radians(ORIGIN_LAT))))
+        vx, vy, vz = (int(round(v * 100)) for v in self._world_velocity(p))
+        hdg = int(round(math.degrees(p.psi) * 100)) % 36000
+        self.send("global_position_int", self.time_boot_ms, int(round(lat * 1e7)),
+                  int(round(lon * 1e7)), int(round(-p.z * 1000)), int(round(-p.z * 1000)),
+                  vx, vy, vz, hdg)
+
+    def _send_scaled_pressure(self) -> None:
+        h = self.stack.housing
+        self.send("scaled_pressure", self.time_boot_ms, float(h["pressure"]) * 1000.0, 0.0,
+                  int(round(float(h["temperature"]) * 100)))
+
+    def _send_scaled_pressure2(self) -> None:
+        depth = max(0.0, self.stack.robot.state.z)  # the pressure sensor reads the true depth
+        hpa = SURFACE_PRESSURE_HPA + WATER_DENSITY * 9.80665 * depth / 100.0
+        self.send("scaled_pressure2", self.time_boot_ms, hpa, 0.0, 1500)
+
+    def _send_distance_sensor(self) -> None:
+        p = self.stack.perception()
+        if p.wall_distance is None or p.wall_heading is None:
+            distance, bearing = SONAR_MAX_CM + 1, 0.0
+        else:
+            distance = int(round(min(max(p.wall_distance * 100, SONAR_MIN_CM), SONAR_MAX_CM)))
+            bearing = -p.wall_heading  # wall_heading is the heading relative to the normal
+        q = [math.cos(bearing / 2), 0.0, 0.0, math.sin(bearing / 2)]
+        self.send("distance_sensor", self.time_boot_ms, SONAR_MIN_CM, SONAR_MAX_CM, distance,
+                  mav.MAV_DISTANCE_SENSOR_ULTRASOUND, 1, mav.MAV_SENSOR_ROTATION_CUSTOM, 255,
+                  0.0, 0.0, q, 0)
+
+    def _send_vfr_hud(self) -> None:
+        p = self.stack.perception()
+        heading = int(round(math.degrees(p.psi))) % 360
+        self.send("vfr_hud", math.hypot(p.u, p.v), math.hypot(p.u, p.v), heading, 0, -p.z, -p.w)
+
+    def _send_battery_status(self) -> None:
+        volts, amps, remaining = self._battery()
+        cells = [volts] + [65535] * 9
+        self.send("battery_status", 0, mav.MAV_BATTERY_FUNCTION_ALL, mav.MAV_BATTERY_TYPE_LIPO,
+                  32767, cells, amps, -1, -1, remaining)
+
+    # -- the end --------------------------------------------------------------------------------
+    def summary(self) -> list[str]:
+        """What the run did, against the simulation's truth, for the operator."""
+        s = self.stack.survey.summary()
+        lines = [f"vehicle auv stopped after {self.stack.t:.1f} s of simulated time "
+                 f"({self.counts['commands']} commands, {self.counts['setpoints']} setpoints, "
+                 f"{self.counts['setpoints_ignored']} ignored)",
+                 f"  path {s['path_length_m']} m; wall imaged {s['wall_area_imaged_m2']} m² in "
+                 f"{s['images']} images, {100 * s['share_seen_twice']:.0f} % of it in two or more",
+                 f"  navigator error {s['navigator_rms_m']} m RMS (USBL fixes {s['usbl_fixes']}, "
+                 f"{s['usbl_rejected']} rejected)"]
+        if self.signing is not None:
+            c = self.signing.counts()
+            lines.append(f"  signing: {c['signed']} signed accepted, {c['unsigned']} unsigned "
+                         f"accepted, {c['rejected_unsigned']} unsigned rejected, "
+                         f"{c['rejected_bad']} badly signed rejected")
+        return lines
+
+
+def _fault(text: str) -> tuple[str, float]:
+    try:
+        return parse_fault(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="mcl vehicle",
+        description="Serve the simulated Ictineu as an ArduSub-like MAVLink 2 vehicle.")
+    p.add_argument("--mavlink", required=True, metavar="URL",
+                   help="udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT or tcpin:HOST:PORT")
+    p.add_argument("--speed", type=float, default=10.0, help="times wall time (default 10)")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--inject", action="append", default=[], type=_fault,
+                   metavar="FAULT@SECONDS")
+    p.add_argument("--gcs-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
+                   help="ground-station failsafe after this long without its heartbeat "
+                        "(default 3)")
+    p.add_argument("--pilot-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
+                   help="pilot-input failsafe after this long without MANUAL_CONTROL while "
+                        "armed (default 3)")
+    p.add_argument("--no-wait", action="store_true",
+                   help="start the clock at once instead of at the first GCS heartbeat")
+    p.add_argument("--signing-key", metavar="FILE",
+                   help=f"MAVLink 2 signing key or passphrase (default ${signing.ENV_KEY})")
+    p.add_argument("--require-signing", action="store_true",
+                   help="reject unsigned messages (needs a key)")
+    p.add_argument("--log-level", default="WARNING")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = _parser().parse_args(sys.argv[1:] if argv is None else list(argv))
+    try:
+        url = check_url(args.mavlink)
+        if not (args.speed > 0 and math.isfinite(args.speed)):
+            raise ValueError(f"--speed {args.speed}: must be a positive number")
+        key = signing.load_key(args.signing_key)
+        if args.require_signing and key is None:
+            raise ValueError(f"--require-signing needs a key: --signing-key FILE or "
+                             f"${signing.ENV_KEY}")
+    except ValueError as exc:  # SigningError is a ValueError
+        print(f"mcl vehicle: error: {exc}", file=sys.stderr)
+        return 2
+    logging.basicConfig(level=args.log_level.upper(),
+                        format="%(asctime)s vehicle %(levelname)s %(message)s")
+    stop, ready = threading.Event(), threading.Event()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: stop.set())
+    vehicle = ArduSubVehicle(url, speed=args.speed, seed=args.seed, faults=args.inject,
+                             gcs_timeout=args.gcs_timeout, pilot_timeout=args.pilot_timeout,
+                             wait_for_gcs=not args.no_wait, signing_key=key,
+                             require_signing=args.require_signing, stop=stop, ready=ready)
+    announcer = threading.Thread(target=lambda: ready.wait() and print(
+        f"vehicle auv ready on {url}", flush=True), daemon=True)
+    announcer.start()
+    try:
+        vehicle.run()
+    except (OSError, signing.SigningError) as exc:
+        print(f"mcl vehicle: error: {args.mavlink}: {exc}", file=sys.stderr)
+        return 2
+    print("\n".join(vehicle.summary()), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

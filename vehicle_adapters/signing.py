@@ -1,0 +1,184 @@
+"""MAVLink 2 message signing for both ends of a MAVLink link (the player and the vehicle).
+
+The key is 32 bytes shared by both ends. :func:`load_key` reads it from a file given on the
+command line (``--signing-key FILE``) or else from the environment variable ``MCL_MAVLINK_KEY``.
+Either holds 64 hexadecimal digits (the key itself) or any other text, a passphrase, which is
+hashed with SHA-256 as MAVProxy's ``signing setup PASSPHRASE`` does (so that MAVProxy and mcl
+share a key from one passphrase).
+
+:func:`enable` sets up pymavlink's signing on a ``mavutil`` connection: every message sent is
+signed; a message received with a wrong signature (wrong key, or a replayed timestamp) is
+always rejected; an unsigned one is accepted unless ``require`` is set, in which case only
+RADIO_STATUS may come unsigned (as ArduPilot allows, for radios that cannot sign). Rejected
+messages never reach the application (pymavlink turns them into BAD_DATA); they are counted in
+the returned :class:`SigningState`.
+
+The signing timestamp (10 µs units since 2015-01-01) must never go back for one key, or the
+other end would reject our messages as replays. The state persists it in a small file (by
+default ``$MCL_STATE_DIR`` or ``~/.local/state/mcl``, one file per key hash and side); a new
+run starts after the timestamp saved by the last one plus a margin covering messages signed
+after that save. Call :meth:`SigningState.save` now and then (every few seconds) and at exit:
+it also moves the timestamp up to the wall clock, as MAVProxy and ArduPilot do, because
+pymavlink only adds one per message and a peer rejects a new stream more than a minute behind
+its own timestamp.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+ENV_KEY = "MCL_MAVLINK_KEY"
+ENV_STATE_DIR = "MCL_STATE_DIR"
+EPOCH_2015 = 1420070400  # s: MAVLink signing timestamps count from 2015-01-01 UTC
+TICKS_PER_SECOND = 100_000  # a signing timestamp tick is 10 µs
+SAVE_MARGIN = 60 * TICKS_PER_SECOND  # covers what is signed between two saves (>= 1 per tick)
+MSG_ID_RADIO_STATUS = 109  # may come unsigned even when signing is required (as ArduPilot)
+_HEX_KEY = re.compile(r"[0-9a-fA-F]{64}")
+
+
+class SigningError(ValueError):
+    """A key that cannot be used: says which file or variable and why."""
+
+
+def key_from_text(text: str, where: str) -> bytes:
+    """64 hex digits -> those 32 bytes; any other non-empty text -> SHA-256 of the passphrase."""
+    text = text.strip()
+    if not text:
+        raise SigningError(f"{where}: the signing key is empty")
+    if _HEX_KEY.fullmatch(text):
+        return bytes.fromhex(text)
+    return hashlib.sha256(text.encode("utf-8")).digest()
+
+
+def load_key(path: str | None) -> bytes | None:
+    """The signing key from the file ``path``, else from ``$MCL_MAVLINK_KEY``, else None."""
+    if path is not None:
+        try:
+            text = Path(path).read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise SigningError(f"{path}: no such signing key file") from None
+        except IsADirectoryError:
+            raise SigningError(f"{path}: is a directory, not a signing key file") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            reason = getattr(exc, "strerror", None) or str(exc)
+            raise SigningError(f"{path}: cannot read the signing key: {reason}") from None
+        return key_from_text(text, path)
+    env = os.environ.get(ENV_KEY)
+    if env is None:
+        return None
+    return key_from_text(env, f"${ENV_KEY}")
+
+
+def key_id(key: bytes) -> str:
+    """A short public name for a key (a hash of its hash): names its timestamp file."""
+    return hashlib.sha256(hashlib.sha256(key).digest()).hexdigest()[:16]
+
+
+def default_timestamp_file(key: bytes, side: str) -> Path:
+    """Where one side (``vehicle`` or ``player``) keeps the last timestamp used with a key."""
+    base = os.environ.get(ENV_STATE_DIR)
+    root = Path(base) if base else Path.home() / ".local" / "state" / "mcl"
+    return root / f"mavlink-signing-{side}-{key_id(key)}.timestamp"
+
+
+def wall_timestamp() -> int:
+    """The signing timestamp of the wall clock now."""
+    return int((max(time.time(), EPOCH_2015) - EPOCH_2015) * TICKS_PER_SECOND)
+
+
+@dataclass
+class SigningState:
+    """Signing on one connection: counts of what was rejected and the timestamp's file."""
+
+    mav: Any  # the connection's pymavlink MAVLink object (conn.mav)
+    require: bool
+    timestamp_file: Path | None
+    start_timestamp: int = 0  # the first timestamp this run signs with
+    accepted_unsigned: int = 0
+    rejected_unsigned: int = 0
+    rejected_bad: int = 0
+    _seen_bad: int = field(default=0, repr=False)
+
+    @property
+    def timestamp(self) -> int:
+        """The next timestamp this end signs with."""
+        return int(self.mav.signing.timestamp)
+
+    @property
+    def accepted_signed(self) -> int:
+        return int(self.mav.signing.goodsig_count)
+
+    def allow_unsigned(self, mav: Any, msg_id: int) -> bool:
+        """pymavlink's callback for a message without a good signature: accept it or not.
+
+        pymavlink calls it right after counting a bad signature (``badsig_count``), or for a
+        message that has no signature at all; the count tells the two apart."""
+        bad = mav.signing.badsig_count != self._seen_bad
+        self._seen_bad = mav.signing.badsig_count
+        if bad:
+            self.rejected_bad += 1
+            return False
+        if self.require and msg_id != MSG_ID_RADIO_STATUS:
+            self.rejected_unsigned += 1
+            return False
+        self.accepted_unsigned += 1
+        return True
+
+    def advance(self) -> None:
+        """Move the timestamp up to the wall clock (never back).
+
+        pymavlink adds one per message signed; without this a long run falls behind the wall
+        clock, and a peer that starts later rejects its stream as more than a minute old."""
+        self.mav.signing.timestamp = max(self.timestamp, wall_timestamp())
+
+    def save(self) -> None:
+        """Advance the timestamp to the wall clock and write it (atomically), so that a
+        restart goes on after it. Call it from the thread that sends (it changes the
+        timestamp the next message is signed with)."""
+        self.advance()
+        if self.timestamp_file is None:
+            return
+        self.timestamp_file.parent.mkdir(parents=True, exist_ok=True)
+        tmp = self.timestamp_file.with_suffix(".tmp")
+        tmp.write_text(f"{self.timestamp}\n", encoding="ascii")
+        os.replace(tmp, self.timestamp_file)
+
+    def counts(self) -> dict[str, int]:
+        return {"signed": self.accepted_signed, "unsigned": self.accepted_unsigned,
+                "rejected_unsigned": self.rejected_unsigned, "rejected_bad": self.rejected_bad}
+
+
+def saved_timestamp(path: Path | None) -> int:
+    """The timestamp a previous run saved in ``path`` (0 when there is none or it is junk)."""
+    if path is None:
+        return 0
+    try:
+        return max(0, int(path.read_text(encoding="ascii").strip()))
+    except (OSError, ValueError, UnicodeDecodeError):
+        return 0
+
+
+def enable(conn: Any, key: bytes, *, require: bool, link_id: int,
+           timestamp_file: Path | None) -> SigningState:
+    """Sign everything ``conn`` (a mavutil connection) sends and check what it receives."""
+    if len(key) != 32:
+        raise SigningError(f"a MAVLink signing key has 32 bytes, not {len(key)}")
+    if not 0 <= link_id <= 255:
+        raise SigningError(f"link id {link_id} is not in 0..255")
+    state = SigningState(conn.mav, require, timestamp_file)
+    previous = saved_timestamp(timestamp_file)
+    start = max(wall_timestamp(), previous + SAVE_MARGIN if previous else 0)
+    state.start_timestamp = start
+    callback: Callable[[Any, int], bool] = state.allow_unsigned
+    conn.setup_signing(key, sign_outgoing=True, allow_unsigned_callback=callback,
+                       initial_timestamp=start, link_id=link_id)
+    state._seen_bad = int(conn.mav.signing.badsig_count)
+    state.save()
+    return state
