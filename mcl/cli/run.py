@@ -174,6 +174,10 @@ def _run(args: argparse.Namespace) -> int:
           f"of mission time ({player.fired} firings)"
           + (f": {outcome.reason}" if outcome.reason else ""))
     print(f"  run log: {log_path}")
+    summary = getattr(vehicle, "summary", None)
+    if summary is not None:  # what went over a MAVLink link
+        print("  link: " + ", ".join(f"{k} {v}" for k, v in summary().items()
+                                     if v is not None))
     if stack is not None:
         _report_survey(stack, log_path, name)
     return EXIT_OK if status == "ok" else EXIT_FAIL
