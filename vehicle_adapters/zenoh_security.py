@@ -1,36 +1,323 @@
-"""Securing the Zenoh link: who may connect, and who may publish actions (AAL.md).
+"""Securing the Zenoh link: who may connect, and who may publish actions (AAL.md, ZENOH_SECURITY.md).
 
-STUB (being built): the interface is fixed, the body is not.
+Three roles share one link. The **vehicle** listens and holds the keys to the door: the list of
+accepted users (a Zenoh ``dictionary_file`` of ``user:password`` lines) and/or the certificate
+authority that signs every accepted certificate (mutual TLS). It also enforces Zenoh's access
+control: only the **player**'s identity (``--player-user``, ``--player-cn``) may put actions;
+**observers** (an operator's monitor) may only subscribe; anyone else is refused when the
+session is opened, before any message flows.
 
 - :class:`Security` holds this side's credentials and, on the vehicle, who may do what.
 - :func:`add_arguments` adds the command-line options of one role (``vehicle``, ``player``,
-  ``observer``) to an argparse parser; :func:`from_args` reads them back.
-- :func:`apply` writes them into a ``zenoh.Config`` (called by ``zenoh_config``).
+  ``observer``) to an argparse parser; :func:`from_args` reads them back and checks them (every
+  mistake is a ValueError whose message says what to do).
+- :func:`apply` writes them into a ``zenoh.Config`` (called by ``zenoh_config``);
+  :func:`access_control` is the vehicle's ACL block (Zenoh 1.x ``access_control``).
+
+Zenoh itself checks the password (an HMAC of it keyed with a nonce: the password never crosses
+the link) and the certificates; this module only builds the configuration, and checks the
+files first so that a mistake is one clear line rather than a failure deep in Zenoh.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
+
+ROLES = ("vehicle", "player", "observer")
+PASSWORD_ENV = "MCL_ZENOH_PASSWORD"
+DEFAULT_PLAYER = "player"  # the user name / certificate common name allowed to put actions
+
+# Key expressions of the access-control rules; ``*`` stands for any vehicle name (keys() in
+# zenoh_link). A rule applies to a message whose key it includes (not to a wider key).
+ACTION_KEYS = ["mcl/*/aal/action"]
+STATUS_KEYS = ["mcl/*/mission/status"]
+PLAYER_TOKEN_KEYS = ["mcl/*/alive/player/**"]  # mcl/<v>/alive/player/<run>
+ALL_KEYS = ["mcl/**"]
+
+Container = argparse.ArgumentParser | argparse._ArgumentGroup
 
 
 @dataclass(frozen=True)
 class Security:
-    """Nothing set: an open link (the default, as on a bench)."""
+    """One side's credentials; with nothing set, an open link (the default, as on a bench).
+
+    ``user``/``password``: what a player or observer presents. ``users_file``/``users``: the
+    vehicle's dictionary and the names in it. ``tls_*``: PEM files (the CA that signs every
+    certificate, this side's certificate and private key). ``player_user``/``player_cn``: on
+    the vehicle, the one identity allowed to put actions.
+    """
+
+    user: str | None = None
+    password: str | None = None
+    users_file: Path | None = None
+    users: tuple[str, ...] = ()
+    player_user: str = DEFAULT_PLAYER
+    tls_ca: Path | None = None
+    tls_cert: Path | None = None
+    tls_key: Path | None = None
+    player_cn: str = DEFAULT_PLAYER
+
+    @property
+    def usrpwd(self) -> bool:
+        return bool(self.users_file or self.user)
+
+    @property
+    def tls(self) -> bool:
+        return self.tls_ca is not None
 
     def __bool__(self) -> bool:
-        return False
+        return self.usrpwd or self.tls
 
 
-def add_arguments(parser: argparse.ArgumentParser, role: str) -> None:
+# -- command line ---------------------------------------------------------------------------------
+def add_arguments(parser: Container, role: str) -> None:
     """Add the security options of ``role`` (vehicle | player | observer) to ``parser``."""
+    _check_role(role)
+    if role == "vehicle":
+        parser.add_argument("--users", metavar="FILE",
+                            help="accept only these users: one 'user:password' a line "
+                                 "(enables access control)")
+        parser.add_argument("--player-user", default=DEFAULT_PLAYER, metavar="NAME",
+                            help="the user allowed to put actions; every other user in "
+                                 f"--users only reads (default {DEFAULT_PLAYER})")
+        parser.add_argument("--player-cn", default=DEFAULT_PLAYER, metavar="NAME",
+                            help="with TLS: the certificate common name allowed to put "
+                                 f"actions (default {DEFAULT_PLAYER})")
+    else:
+        parser.add_argument("--user", metavar="NAME",
+                            help="authenticate to the vehicle as NAME (password from "
+                                 f"--password-file or ${PASSWORD_ENV})")
+        parser.add_argument("--password-file", metavar="FILE",
+                            help="the password of --user, on the file's first line")
+    parser.add_argument("--tls-ca", metavar="FILE",
+                        help="mutual TLS (tls/HOST:PORT endpoints): the CA certificate (PEM)")
+    parser.add_argument("--tls-cert", metavar="FILE",
+                        help="mutual TLS: this side's certificate (PEM), signed by --tls-ca")
+    parser.add_argument("--tls-key", metavar="FILE",
+                        help="mutual TLS: this side's private key (PEM)")
 
 
 def from_args(args: argparse.Namespace, role: str) -> Security:
     """The Security the parsed options describe; raises ValueError with a clear message."""
-    return Security()
+    _check_role(role)
+    tls = _tls_files(args)
+    endpoint = _endpoint(args)
+    if endpoint.startswith("tls/") and not tls:
+        raise ValueError(f"the endpoint {endpoint} is TLS: give --tls-ca, --tls-cert and "
+                         "--tls-key (see docs/ZENOH_SECURITY.md)")
+    if tls and not endpoint.startswith("tls/"):
+        raise ValueError(f"--tls-* options need a tls/HOST:PORT endpoint, not {endpoint} "
+                         "(the certificates would not be used)")
+    ca, cert, key = tls or (None, None, None)
+    if role == "vehicle":
+        player_user = _name(getattr(args, "player_user", None) or DEFAULT_PLAYER,
+                            "--player-user")
+        player_cn = _name(getattr(args, "player_cn", None) or DEFAULT_PLAYER, "--player-cn")
+        users_file = getattr(args, "users", None)
+        users: tuple[str, ...] = ()
+        if users_file:
+            users = read_users(users_file)
+            if player_user not in users:
+                raise ValueError(f"{users_file}: no user {player_user!r}: add a line "
+                                 f"'{player_user}:PASSWORD' or name the player with "
+                                 "--player-user")
+        users_path = Path(users_file).resolve() if users_file else None
+        return Security(users_file=users_path, users=users,
+                        player_user=player_user, tls_ca=ca, tls_cert=cert, tls_key=key,
+                        player_cn=player_cn)
+    user = getattr(args, "user", None)
+    password_file = getattr(args, "password_file", None)
+    password = None
+    if user is not None:
+        user = _name(user, "--user")
+        if password_file:
+            password = read_password(password_file)
+        elif os.environ.get(PASSWORD_ENV):
+            password = os.environ[PASSWORD_ENV]
+        else:
+            raise ValueError(f"--user {user} needs a password: --password-file FILE or "
+                             f"the environment variable {PASSWORD_ENV}")
+    elif password_file:
+        raise ValueError("--password-file needs --user NAME")
+    return Security(user=user, password=password, tls_ca=ca, tls_cert=cert, tls_key=key)
 
 
+def _check_role(role: str) -> None:
+    if role not in ROLES:
+        raise ValueError(f"unknown role {role!r}: use one of {', '.join(ROLES)}")
+
+
+def _endpoint(args: argparse.Namespace) -> str:
+    """The Zenoh endpoint the command uses (``--zenoh`` or ``--vehicle zenoh:ENDPOINT``)."""
+    from .zenoh_link import DEFAULT_ENDPOINT  # here: zenoh_link imports this module
+
+    endpoint = getattr(args, "zenoh", None)
+    vehicle = getattr(args, "vehicle", None)
+    if not endpoint and isinstance(vehicle, str) and vehicle.startswith("zenoh:"):
+        endpoint = vehicle.partition(":")[2]
+    return str(endpoint or DEFAULT_ENDPOINT)
+
+
+def _name(name: str, option: str) -> str:
+    if not name or name != name.strip() or ":" in name:
+        raise ValueError(f"{option} {name!r}: a name must be non-empty, without ':' and "
+                         "without spaces at its ends")
+    return name
+
+
+def _tls_files(args: argparse.Namespace) -> tuple[Path, Path, Path] | None:
+    """The three PEM files, all checked, or None if no --tls-* option was given."""
+    given = {o: getattr(args, o.replace("-", "_"), None)
+             for o in ("tls-ca", "tls-cert", "tls-key")}
+    if not any(given.values()):
+        return None
+    missing = [f"--{o}" for o, v in given.items() if not v]
+    if missing:
+        raise ValueError(f"mutual TLS needs --tls-ca, --tls-cert and --tls-key: "
+                         f"{' and '.join(missing)} missing")
+    ca, cert, key = (_pem(f"--{o}", str(v)) for o, v in given.items())
+    return ca, cert, key
+
+
+def _pem(option: str, name: str) -> Path:
+    path = Path(name)
+    try:
+        text = path.read_text("ascii", errors="replace")
+    except OSError as exc:
+        raise ValueError(f"{option} {name}: cannot read it ({exc.strerror})") from None
+    if "-----BEGIN " not in text:
+        raise ValueError(f"{option} {name}: not a PEM file (no '-----BEGIN' line)")
+    return path.resolve()
+
+
+# -- files ----------------------------------------------------------------------------------------
+def read_password(name: str) -> str:
+    """The password on the first line of ``name`` (spaces at its ends removed, as Zenoh does)."""
+    try:
+        lines = Path(name).read_text("utf-8").splitlines()
+    except OSError as exc:
+        raise ValueError(f"--password-file {name}: cannot read it ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"--password-file {name}: not UTF-8 text") from None
+    password = lines[0].strip() if lines else ""
+    if not password:
+        raise ValueError(f"--password-file {name}: empty; put the password on its first line")
+    return password
+
+
+def read_users(name: str) -> tuple[str, ...]:
+    """The user names in a Zenoh user-password dictionary, checked line by line.
+
+    Zenoh reads ``user:password`` a line (split at the first ':', spaces at the ends removed,
+    blank lines skipped) and has no comments; a mistake is reported as ``file:line: ...``.
+    """
+    try:
+        text = Path(name).read_text("utf-8")
+    except OSError as exc:
+        raise ValueError(f"--users {name}: cannot read it ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"--users {name}: not UTF-8 text") from None
+    users: list[str] = []
+    for number, line in enumerate(text.splitlines(), 1):
+        where = f"{name}:{number}"
+        if not line.strip():
+            continue
+        if line.lstrip().startswith("#"):
+            raise ValueError(f"{where}: comments are not allowed (Zenoh reads every line "
+                             "as user:password)")
+        user, colon, password = line.partition(":")
+        user = user.strip()
+        if not colon:
+            raise ValueError(f"{where}: expected 'user:password', found no ':'")
+        if not user:
+            raise ValueError(f"{where}: empty user name before ':'")
+        if not password.strip():
+            raise ValueError(f"{where}: empty password for user {user!r}")
+        if user in users:
+            raise ValueError(f"{where}: user {user!r} appears twice")
+        users.append(user)
+    if not users:
+        raise ValueError(f"--users {name}: no users; write one 'user:password' a line")
+    return tuple(users)
+
+
+# -- the Zenoh configuration ----------------------------------------------------------------------
 def apply(config: Any, security: Security, role: str) -> None:
     """Write ``security`` into the zenoh.Config ``config`` for ``role``."""
+    _check_role(role)
+
+    def put(key: str, value: object) -> None:
+        config.insert_json5(key, json.dumps(value))
+
+    if role == "vehicle":
+        if security.users_file is not None:
+            put("transport/auth/usrpwd/dictionary_file", str(security.users_file))
+    elif security.user is not None:
+        put("transport/auth/usrpwd/user", security.user)
+        put("transport/auth/usrpwd/password", security.password or "")
+    if security.tls:
+        side = "listen" if role == "vehicle" else "connect"
+        put("transport/link/tls/root_ca_certificate", str(security.tls_ca))
+        put(f"transport/link/tls/{side}_certificate", str(security.tls_cert))
+        put(f"transport/link/tls/{side}_private_key", str(security.tls_key))
+        put("transport/link/tls/enable_mtls", True)
+        if role == "vehicle":  # TLS only: no plain tcp/ beside it
+            put("transport/link/protocols", ["tls"])
+    if role == "vehicle" and security:
+        put("access_control", access_control(security))
+
+
+def access_control(security: Security) -> dict[str, Any]:
+    """The vehicle's ACL: deny by default; the player puts actions; everyone admitted reads.
+
+    Subjects: ``player`` is the one identity allowed to put (its user name and/or certificate
+    common name: both must match when both are configured); ``readers`` is every admitted
+    peer (every user in the dictionary, or with TLS alone every certificate the CA signed:
+    the others never get a session). Flows: ``ingress`` rules say what a peer may send the
+    vehicle (the player: actions, status, its token, answers to status queries; readers:
+    subscriptions, liveliness subscriptions, status queries); the ``egress`` rule lets the
+    vehicle's own publications, token and declarations out, and what it routes between the
+    player and a monitor connected as a client (status, queries and replies).
+    """
+    player: dict[str, Any] = {"id": "player"}
+    readers: dict[str, Any] = {"id": "readers"}
+    if security.users_file is not None:
+        player["usernames"] = [security.player_user]
+        readers["usernames"] = list(security.users)
+    if security.tls:
+        player["cert_common_names"] = [security.player_cn]
+    rules = [
+        _rule("player puts actions and status", "ingress", ["put"],
+              ACTION_KEYS + STATUS_KEYS),
+        _rule("player answers status queries", "ingress", ["declare_queryable", "reply"],
+              STATUS_KEYS),
+        _rule("player's token", "ingress", ["liveliness_token"], PLAYER_TOKEN_KEYS),
+        _rule("readers subscribe", "ingress",
+              ["declare_subscriber", "declare_liveliness_subscriber", "liveliness_query"],
+              ALL_KEYS),
+        _rule("readers ask the status", "ingress", ["query"], STATUS_KEYS),
+        _rule("vehicle publishes and forwards", "egress",
+              ["put", "declare_subscriber", "declare_queryable", "query", "reply",
+               "liveliness_token", "declare_liveliness_subscriber", "liveliness_query"],
+              ALL_KEYS),
+    ]
+    return {
+        "enabled": True,
+        "default_permission": "deny",
+        "rules": rules,
+        "subjects": [player, readers],
+        "policies": [
+            {"id": "player", "rules": [r["id"] for r in rules[:3]], "subjects": ["player"]},
+            {"id": "readers", "rules": [r["id"] for r in rules[3:]], "subjects": ["readers"]},
+        ],
+    }
+
+
+def _rule(rule_id: str, flow: str, messages: list[str], keys: list[str]) -> dict[str, Any]:
+    return {"id": rule_id, "permission": "allow", "flows": [flow], "messages": messages,
+            "key_exprs": keys}
