@@ -373,7 +373,11 @@ def test_player_restarted_leaves_nothing_enabled_and_its_actions_are_stale(tmp_p
             new = [s for s in after if s["run"] != old_run]
             assert new, "the vehicle never saw the second player"
             assert all(set(s["active"]) <= {"Surface"} for s in new), new
-            # the first run's action, replayed now, is refused as stale
+            # the first run's action, replayed now, is refused as stale; counted from a state
+            # in which the second player is gone and all its actions are applied
+            wait_for(lambda: not telemetry.last()["player"], "the second player gone")
+            settled = len(telemetry.states) + 1
+            wait_for(lambda: len(telemetry.states) > settled, "telemetry after it")
             stale_before = telemetry.last()["stale"]
             actions_before = telemetry.last()["actions"]
             replay = ActionMessage(10**6, 0.0, "dam_inspection", "StartCamera@38:13",

@@ -273,6 +273,23 @@ def test_users_a_wrong_password_or_none_is_refused(users: dict[str, Path]) -> No
             assert (state["actions"], state["player"], state["active"]) == (0, False, [])
 
 
+def test_users_an_observer_running_a_mission_gets_link_lost_not_a_hang(
+        users: dict[str, Path], tmp_path: Path) -> None:
+    """A valid user who is not the player: its token and actions are denied, so the vehicle
+    never takes its run; the run must end (Link.lost, saying why) instead of waiting."""
+    endpoint = free_endpoint()
+    mission = tmp_path / "short.mcl"
+    mission.write_text(SHORT)
+    with vehicle_process(endpoint, "--users", str(users["users"])):
+        result = cli("mcl", "run", str(mission), "--vehicle", f"zenoh:{endpoint}",
+                     "--user", "operator", "--password-file", str(users["operator"]),
+                     "--log", str(tmp_path / "run.jsonl"), timeout=60)
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert "ended FAIL" in result.stdout
+    assert "does not take this run" in result.stderr and "--player-user" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
 # -- mutual TLS ---------------------------------------------------------------------------------
 def openssl(*args: str, cwd: Path) -> None:
     subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True, timeout=30)

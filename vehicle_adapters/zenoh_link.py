@@ -37,7 +37,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
-import queue
 import threading
 import time
 from typing import Any
@@ -45,6 +44,7 @@ from typing import Any
 import zenoh
 
 from .aal import ActionMessage, EventMessage, InvalidMessage
+from .link import MAX_POLL, RemoteVehicle
 from .zenoh_security import Security
 from .zenoh_security import apply as apply_security
 
@@ -53,7 +53,6 @@ log = logging.getLogger(__name__)
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 LEASE_MS = 1000  # transport lease: a silent peer is declared gone after this long
 MAX_EXTRAPOLATION = 0.25  # wall s: how far the player's clock runs past the last clock message
-MAX_POLL = 0.2  # wall s: the longest single wait in receive()
 CLOSE_TIMEOUT = 1.0  # wall s: the longest wait for a session to close
 CLIENT_CONNECT_MS = 2000  # a client (mcl monitor) gives up opening after this long
 
@@ -121,43 +120,32 @@ def payload_text(sample: zenoh.Sample) -> bytes:
     return sample.payload.to_bytes()
 
 
-class ZenohVehicle:
+class ZenohVehicle(RemoteVehicle):
     """The player's adapter to a vehicle stack reached over Zenoh (the Vehicle protocol).
 
     ``with ZenohVehicle("tcp/127.0.0.1:7447", "auv") as vehicle: run(player, vehicle, ...)``.
     Entering opens the session, declares the player's liveliness token, the action publisher,
-    the event and clock subscribers and the vehicle's liveliness watch, and waits (at most
-    ``connect_timeout`` wall seconds) for the vehicle's token and its first clock message.
-    It does not raise if the vehicle is absent: the run then gets ``Link.lost``.
+    the event, clock and behaviour-telemetry subscribers and the vehicle's liveliness watch,
+    and waits (at most ``connect_timeout`` wall seconds) for the vehicle's token, its clock and
+    its word that it takes this run's actions (its telemetry names this run: a vehicle whose
+    access control refuses us never does). It does not raise if the vehicle is absent or
+    refuses us: the run then gets ``Link.lost`` saying why.
     """
-
-    simulated = False  # the runner polls with bounded waits
 
     def __init__(self, endpoint: str = DEFAULT_ENDPOINT, vehicle: str = "auv", *,
                  connect_timeout: float = 5.0, lease_ms: int = LEASE_MS,
                  max_poll: float = MAX_POLL, config: zenoh.Config | None = None,
                  security: Security | None = None):
+        super().__init__(max_poll=max_poll, max_extrapolation=MAX_EXTRAPOLATION)
         self.endpoint = endpoint
         self.name = vehicle
         self.keys = keys(vehicle)
         self.connect_timeout = connect_timeout
-        self.max_poll = max_poll
         self._config = config or zenoh_config(endpoint, connect=True, lease_ms=lease_ms,
                                               security=security, role="player")
-        self._events: queue.Queue[EventMessage] = queue.Queue()
-        self._lock = threading.Lock()
         self._alive = threading.Event()  # the vehicle's token is present
         self._clocked = threading.Event()  # a clock message has arrived
-        self._lost = False
-        self.lost_at: float | None = None  # monotonic time Link.lost was raised
-        self.lost_reason = ""
-        self._max_seq = -1
-        # the clock: vehicle time base_t at monotonic base_wall, running at speed x wall
-        self._base_t = 0.0
-        self._base_wall = time.monotonic()
-        self._speed = 1.0
-        self._running = False
-        self._last_now = 0.0
+        self._taken = threading.Event()  # the vehicle's telemetry names this run
         self.dropped = 0  # invalid events received and dropped
         self.received = 0  # valid events received
         self.sent = 0
@@ -183,24 +171,34 @@ class ZenohVehicle:
                 s.declare_queryable(k["status"], self._on_status_query),
                 s.declare_subscriber(k["event"], self._on_event),
                 s.declare_subscriber(k["clock"], self._on_clock),
+                s.declare_subscriber(f"{k['telemetry']}/behaviours", self._on_behaviours),
                 s.liveliness().declare_subscriber(k["alive_vehicle"], self._on_liveliness,
                                                   history=True),
                 s.liveliness().declare_token(f"{k['alive_player']}/{self.run}"),
             ]
-            deadline = time.monotonic() + self.connect_timeout
-            if not self._alive.wait(self.connect_timeout):
-                self._link_lost(f"no vehicle token on {k['alive_vehicle']} within "
-                                f"{self.connect_timeout:g} s (endpoint {self.endpoint})")
-            else:
-                self._clocked.wait(max(0.0, deadline - time.monotonic()))
-                # the action subscriber is declared before the vehicle's token: wait (bounded)
-                # until the publisher sees it so that the first action is not lost
-                while not self._publisher.matching_status and time.monotonic() < deadline:
-                    time.sleep(0.002)
+            self._wait_for_vehicle()
         except BaseException:
             self.__exit__()
             raise
         return self
+
+    def _wait_for_vehicle(self) -> None:
+        """Bounded by ``connect_timeout``: the vehicle's token, its clock, its taking this run
+        (else ``Link.lost``), and the action publisher matched so that no action is lost."""
+        k, deadline = self.keys, time.monotonic() + self.connect_timeout
+        if not self._alive.wait(self.connect_timeout):
+            self._link_lost(f"no vehicle token on {k['alive_vehicle']} within "
+                            f"{self.connect_timeout:g} s (endpoint {self.endpoint})")
+            return
+        self._clocked.wait(max(0.0, deadline - time.monotonic()))
+        if not self._taken.wait(max(0.0, deadline - time.monotonic())):
+            self._link_lost(f"the vehicle does not take this run's actions within "
+                            f"{self.connect_timeout:g} s: are we its player? (with access "
+                            "control: --user / --tls-cert must be the vehicle's --player-user "
+                            "/ --player-cn)")
+            return
+        while not self._publisher.matching_status and time.monotonic() < deadline:
+            time.sleep(0.002)
 
     def __exit__(self, *exc: object) -> None:
         for entity in reversed(self._declared):
@@ -224,10 +222,9 @@ class ZenohVehicle:
             return
         with self._lock:
             self.received += 1
-            self._max_seq = max(self._max_seq, event.seq)
             if event.t > self._vehicle_time_locked():  # the event is news of the clock too
-                self._base_t, self._base_wall = event.t, time.monotonic()
-        self._events.put(event)
+                self._clock_locked(event.t, running=self._running)
+        self.deliver(event)
 
     def _on_clock(self, sample: zenoh.Sample) -> None:
         try:
@@ -239,9 +236,18 @@ class ZenohVehicle:
             log.warning("player ignored an invalid clock message: %s", exc)
             return
         with self._lock:
-            self._base_t, self._base_wall = t, time.monotonic()
-            self._speed, self._running = speed, running
+            if not self._lost:
+                self._clock_locked(t, speed, running)
         self._clocked.set()
+
+    def _on_behaviours(self, sample: zenoh.Sample) -> None:
+        if self._taken.is_set():
+            return
+        try:
+            if json.loads(payload_text(sample)).get("run") == self.run:
+                self._taken.set()
+        except (ValueError, AttributeError):
+            pass
 
     def _on_status_query(self, query: zenoh.Query) -> None:
         status = self._status
@@ -265,39 +271,7 @@ class ZenohVehicle:
             self._alive.clear()
             self._link_lost(f"the vehicle's token {sample.key_expr} went away")
 
-    def _link_lost(self, reason: str) -> None:
-        with self._lock:
-            if self._lost:
-                return
-            self._lost = True
-            self.lost_at = time.monotonic()
-            self.lost_reason = reason
-            t = self._vehicle_time_locked()
-            # from now on the clock runs on wall time: the player's timers still fall due
-            self._base_t, self._base_wall, self._running = t, time.monotonic(), True
-            self._max_seq += 1
-            event = EventMessage(self._max_seq, t, "Link", "lost", {"reason": reason})
-        log.warning("link to vehicle %s lost: %s", self.name, reason)
-        self._events.put(event)
-
     # -- the Vehicle protocol ---------------------------------------------------------------------
-    def _vehicle_time_locked(self) -> float:
-        if not self._running:
-            return self._base_t
-        elapsed = time.monotonic() - self._base_wall
-        if not self._lost:
-            elapsed = min(elapsed, MAX_EXTRAPOLATION)
-        return self._base_t + elapsed * self._speed
-
-    def now(self) -> float:
-        with self._lock:
-            self._last_now = max(self._last_now, self._vehicle_time_locked())
-            return self._last_now
-
-    @property
-    def lost(self) -> bool:
-        return self._lost
-
     def send(self, action: ActionMessage) -> None:
         if self.session is None:
             raise RuntimeError("ZenohVehicle used outside its 'with' block")
@@ -306,31 +280,3 @@ class ZenohVehicle:
             return
         self._publisher.put(dataclasses.replace(action, run=self.run).to_json())
         self.sent += 1
-
-    def receive(self, until: float) -> list[EventMessage]:
-        """The events that have arrived; waits for the first one at most until the clock reads
-        ``until`` and never longer than ``max_poll`` wall seconds."""
-        events: list[EventMessage] = []
-        wall_end = time.monotonic() + self.max_poll
-        while True:
-            try:
-                events.append(self._events.get_nowait())
-                continue
-            except queue.Empty:
-                pass
-            if events:
-                return events
-            remaining_wall = wall_end - time.monotonic()
-            with self._lock:
-                speed = self._speed if self._running else 0.0
-            ahead = until - self.now()
-            if remaining_wall <= 0 or ahead <= 0:
-                return events
-            wait = remaining_wall if speed == 0 else min(remaining_wall, ahead / speed)
-            try:
-                events.append(self._events.get(timeout=max(wait, 1e-4)))
-            except queue.Empty:
-                return events
-
-    def idle(self) -> bool:
-        return False
