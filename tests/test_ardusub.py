@@ -398,8 +398,8 @@ def test_load_key_forms_and_errors(tmp_path: Path, monkeypatch: pytest.MonkeyPat
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--mavlink", "udpout:127.0.0.1"], "expected udpout:HOST:PORT"),
-    (["--mavlink", "serial:/dev/ttyS0:57600"], "expected udpout:HOST:PORT"),
+    (["--mavlink", "udpout:127.0.0.1"], "is not a MAVLink URL"),
+    (["--mavlink", "serial:/dev/ttyS0:57600"], "is not a MAVLink URL"),
     (["--mavlink", "udpout:127.0.0.1:70000"], "not in 1..65535"),
     (["--mavlink", "udpout:127.0.0.1:14550", "--signing-key", "/nonexistent/key"],
      "no such signing key file"),

@@ -387,7 +387,7 @@ def test_no_vehicle_gives_link_lost_without_hanging(tmp_path: Path) -> None:
 @pytest.mark.parametrize("args, message", [
     (["--vehicle", "mavlink:udpin:nowhere"], "not a MAVLink URL"),
     (["--vehicle", "mavlink:serial0:127.0.0.1:14550"], "not a MAVLink URL"),
-    (["--vehicle", "mavlink:udpin:127.0.0.1:70000"], "not a MAVLink URL"),
+    (["--vehicle", "mavlink:udpin:127.0.0.1:70000"], "port 70000 is not in 1..65535"),
     (["--vehicle", "mavlink:", "--signing-key", "/nonexistent/key"], "no such signing key"),
     (["--vehicle", "mavlink:", "--require-signing"], "--require-signing needs a key"),
 ])

@@ -102,7 +102,6 @@ import logging
 import math
 import os
 import queue
-import re
 import signal
 import socket
 import sys
@@ -121,28 +120,31 @@ from vehicle.stack import DT, IctineuStack, StackConfig, parse_fault  # noqa: E4
 
 from . import signing  # noqa: E402
 from .aal import ActionMessage  # noqa: E402
+from .ardusub_protocol import (  # noqa: E402
+    GCS_SYSID,
+    GCS_TEXT,
+    LEAK_TEXT,
+    MODE_NAMES,
+    MODES,
+    PILOT_TEXT,
+    PRESSURE_TEXT,
+    TEMPERATURE_TEXT,
+    VEHICLE_SYSID,
+    parse_url,
+)
 
 log = logging.getLogger(__name__)
 mav = mavutil.mavlink
 
-SYSID, COMPID = 1, mav.MAV_COMP_ID_AUTOPILOT1
-GCS_SYSID = 255  # ArduSub's SYSID_MYGCS
+SYSID, COMPID = VEHICLE_SYSID, mav.MAV_COMP_ID_AUTOPILOT1
 ACCEPTED, DENIED, FAILED, UNSUPPORTED = (int(mav.MAV_RESULT_ACCEPTED), int(mav.MAV_RESULT_DENIED),
                                          int(mav.MAV_RESULT_FAILED),
                                          int(mav.MAV_RESULT_UNSUPPORTED))
-MODES = {"STABILIZE": 0, "ACRO": 1, "ALT_HOLD": 2, "AUTO": 3, "GUIDED": 4, "CIRCLE": 7,
-         "SURFACE": 9, "POSHOLD": 16, "MANUAL": 19}
-MODE_NAMES = {n: name for name, n in MODES.items()}
 PILOT_MODES = {MODES[m] for m in ("MANUAL", "STABILIZE", "ACRO", "ALT_HOLD")}
 HOLD_MODES = {MODES["GUIDED"], MODES["POSHOLD"]}
 UNAVAILABLE_MODES = {MODES["AUTO"], MODES["CIRCLE"]}  # no mission, no circle here
 FORCE_ARM = 21196  # param2 of MAV_CMD_COMPONENT_ARM_DISARM that skips the arming checks
 
-LEAK_TEXT = "Leak Detected"
-TEMPERATURE_TEXT = "Internal temperature critical!"
-PRESSURE_TEXT = "Internal pressure critical!"
-PILOT_TEXT = "Lost manual control"
-GCS_TEXT = f"MYGCS: {GCS_SYSID}, heartbeat lost"
 ALARM_REPEAT = 5.0  # simulated s between repeats of an alarm's STATUSTEXT
 MAX_TEMPERATURE = 50.0  # degC (FS_TEMP_MAX; the stack's Alarms default)
 MAX_PRESSURE = 1.5  # bar inside the vessel (FS_PRESS_MAX; the stack's Alarms default)
@@ -162,7 +164,6 @@ PILOT_SPEED, PILOT_YAW_RATE = 0.4, 0.3  # m/s and rad/s at full stick
 MAX_SLEEP = 0.01  # wall s: the loop looks at its inbox at least this often
 SAVE_PERIOD = 5.0  # wall s between saves of the signing timestamp
 MOTION = ("GoTo", "WallInspection", "AchieveHeadDist", "Surface", "Velocity")
-_URL = re.compile(r"(udpin|udpout|udp|tcp|tcpin):([^:\s]+):(\d{1,5})")
 
 
 class Velocity(bh.Behaviour):
@@ -223,16 +224,14 @@ class Streams:
 
 def check_url(url: str) -> str:
     """The URL if pymavlink can use it and its host resolves; ValueError saying why not."""
-    m = _URL.fullmatch(url)
-    if m is None:
-        raise ValueError(f"--mavlink {url!r}: expected udpout:HOST:PORT, udpin:HOST:PORT, "
-                         "tcp:HOST:PORT or tcpin:HOST:PORT (e.g. udpout:127.0.0.1:14550)")
-    if not 0 < int(m[3]) < 65536:
-        raise ValueError(f"--mavlink {url!r}: port {m[3]} is not in 1..65535")
     try:
-        socket.getaddrinfo(m[2], int(m[3]))
+        _, host, port = parse_url(url)
+    except ValueError as exc:
+        raise ValueError(f"--mavlink {exc} (e.g. udpout:127.0.0.1:14550)") from None
+    try:
+        socket.getaddrinfo(host, port)
     except OSError as exc:
-        raise ValueError(f"--mavlink {url!r}: host {m[2]!r}: {exc.strerror or exc}") from None
+        raise ValueError(f"--mavlink {url!r}: host {host!r}: {exc.strerror or exc}") from None
     return url
 
 

@@ -42,8 +42,6 @@ from __future__ import annotations
 import logging
 import math
 import os
-import queue
-import re
 import select
 import threading
 import time
@@ -58,18 +56,29 @@ os.environ["MAVLINK20"] = "1"  # before pymavlink loads a dialect: MAVLink 2 onl
 from pymavlink import mavutil as mavutil  # noqa: E402
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
+from behaviours.base import wrap  # noqa: E402
 from mcl.errors import Diagnostic, MclError  # noqa: E402
 
 from . import signing  # noqa: E402
 from .aal import ActionMessage, EventMessage  # noqa: E402
+from .ardusub_protocol import GCS_SYSID, MODES, VEHICLE_SYSID, parse_url  # noqa: E402
+from .link import MAX_POLL, RemoteVehicle  # noqa: E402
+from .mavlink_behaviours import (  # noqa: E402
+    PRIORITY,
+    AchieveHeadDist,
+    Alarms,
+    Behaviour,
+    GoTo,
+    Surface,
+    Telemetry,
+    WallInspection,
+)
 
 log = logging.getLogger(__name__)
 
 DEFAULT_URL = "udpin:127.0.0.1:14550"
-GCS_SYSID, GCS_COMPID = 255, mavlink.MAV_COMP_ID_MISSIONPLANNER
-VEHICLE_SYSID, VEHICLE_COMPID = 1, mavlink.MAV_COMP_ID_AUTOPILOT1
-MODES = {"STABILIZE": 0, "ACRO": 1, "ALT_HOLD": 2, "AUTO": 3, "GUIDED": 4, "CIRCLE": 7,
-         "SURFACE": 9, "POSHOLD": 16, "MANUAL": 19}  # ArduSub's custom_mode numbers
+GCS_COMPID = mavlink.MAV_COMP_ID_MISSIONPLANNER
+VEHICLE_COMPID = mavlink.MAV_COMP_ID_AUTOPILOT1
 # the telemetry the adapter asks for (Hz; the vehicle's clock says what a second is) and the
 # streams it stops (None): what it does not use only loads the link, the vehicle and a router
 RATES: dict[str, float | None] = {
@@ -83,15 +92,8 @@ ACK_TRIES = 3
 SETPOINT_PERIOD = 0.5  # vehicle s between setpoints while a target moves
 SETPOINT_REFRESH = 2.0  # vehicle s: a constant target is sent again this often (UDP)
 MAX_EXTRAPOLATION = 0.1  # wall s the clock runs on past the last time_boot_ms
-MAX_POLL = 0.2  # wall s: the longest single wait in receive()
 SAVE_PERIOD = 5.0  # wall s between saves of the signing timestamp
-SURFACE_DEPTH = 0.2  # m: Surface.surfaced at or above this depth
-LOOKAHEAD = 0.3  # m ahead on a WallInspection leg: the vehicle follows at a survey pace
-WAYPOINT_TOLERANCE = 0.15  # m: a WallInspection waypoint is passed this close
-WALL_PATIENCE = 10.0  # vehicle s without the wall before AchieveHeadDist.lost
-SETTLE = 3.0  # vehicle s within bounds before AchieveHeadDist.achieved
 ALARM_TEXTS = {"leak": "leak", "temperature": "overtemperature", "pressure": "overpressure"}
-_URL = re.compile(r"(udpin|udpout|udp|udpbcast|tcp|tcpin):([^:\s]+):(\d{1,5})")
 
 
 class MavlinkError(MclError):
@@ -103,175 +105,14 @@ class MavlinkError(MclError):
 
 def check_url(url: str) -> str:
     """The URL if pymavlink can open it as a network link, else MavlinkError saying why."""
-    m = _URL.fullmatch(url)
-    if m is None or not 0 < int(m.group(3)) < 65536:
-        raise MavlinkError(f"--vehicle mavlink:{url}: not a MAVLink URL",
-                           "write it as pymavlink does: udpin:HOST:PORT (listen), "
-                           "udpout:HOST:PORT, udpbcast:HOST:PORT, tcp:HOST:PORT or "
-                           "tcpin:HOST:PORT, "
-                           "e.g. mavlink:udpin:127.0.0.1:14550")
+    try:
+        parse_url(url)
+    except ValueError as exc:
+        raise MavlinkError(f"--vehicle mavlink:{url}: {exc}",
+                           "e.g. --vehicle mavlink:udpin:127.0.0.1:14550") from None
     return url
 
 
-@dataclass
-class Telemetry:
-    """What the vehicle last said about itself (local NED frame = the world frame)."""
-
-    t: float = 0.0  # vehicle s of the last position
-    x: float = 0.0
-    y: float = 0.0
-    z: float = 0.0
-    yaw: float = 0.0  # rad
-    positioned: bool = False  # a LOCAL_POSITION_NED has come
-    wall_distance: float | None = None  # m, perpendicular; None: not tracked
-    wall_bearing: float = 0.0  # rad, from the heading to the wall's normal
-    wall_point: tuple[float, float] | None = None  # (x, y) of the wall's foot, last seen
-    wall_seen_at: float = -math.inf
-    alarms: set[str] = field(default_factory=set)  # latched: "leak", "overtemperature", ...
-    temperature: float | None = None  # deg C inside (SCALED_PRESSURE), if sent
-    pressure: float | None = None  # bar inside
-
-
-def wrap(angle: float) -> float:
-    return math.atan2(math.sin(angle), math.cos(angle))
-
-
-class Behaviour:
-    """A behaviour as the adapter runs it: enabled with the action's params, updated with the
-    telemetry, answering the setpoint components it drives and raising its events."""
-
-    drives: tuple[str, ...] = ()
-
-    def __init__(self, name: str) -> None:
-        self.name = name
-        self.active = False
-        self.params: dict[str, Any] = {}
-        self.raised: set[str] = set()
-        self.events: list[tuple[str, dict[str, Any]]] = []
-
-    def enable(self, params: dict[str, Any], tel: Telemetry) -> None:
-        self.active, self.params, self.raised = True, dict(params), set()
-        self.start(tel)
-
-    def start(self, tel: Telemetry) -> None:
-        pass
-
-    def update(self, tel: Telemetry) -> dict[str, float]:
-        return {}
-
-    def raise_event(self, name: str, **data: Any) -> None:
-        if name not in self.raised:  # once per enable, as on the vehicle stack
-            self.raised.add(name)
-            self.events.append((name, data))
-
-    def param(self, key: str, default: float) -> float:
-        value = self.params.get(key, default)
-        return float(value) if isinstance(value, (int, float)) else default
-
-
-class GoTo(Behaviour):
-    drives = ("x", "y", "z", "yaw")
-
-    def update(self, tel: Telemetry) -> dict[str, float]:
-        target = {k: self.param(k, getattr(tel, k)) for k in ("x", "y", "z")}
-        if "yaw" in self.params:
-            target["yaw"] = math.radians(self.param("yaw", 0.0))
-        error = math.dist((target["x"], target["y"], target["z"]), (tel.x, tel.y, tel.z))
-        yaw_ok = abs(wrap(target.get("yaw", tel.yaw) - tel.yaw)) < math.radians(5)
-        if error < self.param("tolerance", 0.5) and yaw_ok:
-            self.raise_event("reached")
-        return target
-
-
-class WallInspection(Behaviour):
-    drives = ("y", "z")
-
-    def start(self, tel: Telemetry) -> None:
-        self.index = 0
-        self.leg_start = (tel.y, tel.z)
-        try:
-            self.path = [(float(p[0]), float(p[1])) for p in self.params.get("path") or []]
-        except (TypeError, ValueError, IndexError):
-            self.path = []
-            self.raise_event("failed", reason="the path is not a list of (y, z) points")
-            return
-        if not self.path:
-            self.raise_event("failed", reason="empty path")
-
-    def update(self, tel: Telemetry) -> dict[str, float]:
-        if not self.path:
-            return {}
-        while self.index < len(self.path) and \
-                math.dist(self.path[self.index], (tel.y, tel.z)) <= WAYPOINT_TOLERANCE:
-            self.leg_start = self.path[self.index]
-            self.index += 1
-        if self.index >= len(self.path):
-            self.raise_event("done", waypoints=len(self.path))
-            y, z = self.path[-1]
-            return {"y": y, "z": z}
-        y, z = lookahead(self.leg_start, self.path[self.index], (tel.y, tel.z))
-        return {"y": y, "z": z}
-
-
-def lookahead(a: tuple[float, float], b: tuple[float, float], p: tuple[float, float]
-              ) -> tuple[float, float]:
-    """The point LOOKAHEAD beyond p's projection on the leg a -> b, not past b."""
-    dy, dz = b[0] - a[0], b[1] - a[1]
-    length = math.hypot(dy, dz)
-    if length < 1e-9 or math.dist(p, b) <= LOOKAHEAD:
-        return b
-    s = ((p[0] - a[0]) * dy + (p[1] - a[1]) * dz) / length
-    s = min(length, max(0.0, s) + LOOKAHEAD)
-    return a[0] + dy * s / length, a[1] + dz * s / length
-
-
-class AchieveHeadDist(Behaviour):
-    drives = ("x", "yaw")
-
-    def start(self, tel: Telemetry) -> None:
-        self.good_since: float | None = None
-        self.since = tel.t
-
-    def update(self, tel: Telemetry) -> dict[str, float]:
-        seen = max(self.since, tel.wall_seen_at)
-        if tel.wall_distance is None or tel.wall_point is None:
-            self.good_since = None
-            if tel.t - seen > WALL_PATIENCE:
-                self.raise_event("lost", reason="wall not tracked")
-            return {}
-        heading, distance = math.radians(self.param("heading", 0.0)), self.param("distance", 1.5)
-        normal = tel.yaw + tel.wall_bearing  # world direction of the wall's normal
-        e_head = wrap(tel.wall_bearing + heading)
-        if abs(tel.wall_distance - distance) < 0.1 and abs(e_head) < math.radians(2):
-            self.good_since = tel.t if self.good_since is None else self.good_since
-            if tel.t - self.good_since >= SETTLE:
-                self.raise_event("achieved")
-        else:
-            self.good_since = None
-        return {"x": tel.wall_point[0] - distance * math.cos(normal), "yaw": normal + heading}
-
-
-class Surface(Behaviour):
-    drives = ("z",)
-
-    def update(self, tel: Telemetry) -> dict[str, float]:
-        if tel.z <= SURFACE_DEPTH:
-            self.raise_event("surfaced")
-        return {}
-
-
-class Alarms(Behaviour):
-    def update(self, tel: Telemetry) -> dict[str, float]:
-        for alarm in sorted(tel.alarms):
-            self.raise_event(alarm)
-        if tel.temperature is not None and tel.temperature > self.param("max_temperature", 50):
-            self.raise_event("overtemperature", temperature=tel.temperature)
-        if tel.pressure is not None and tel.pressure > self.param("max_pressure", 1.5):
-            self.raise_event("overpressure", pressure=tel.pressure)
-        return {}
-
-
-PRIORITY = ("Surface", "AchieveHeadDist", "WallInspection", "GoTo")  # as vehicle/coordinator
 COMMANDS = {("StartCamera", "enable"): mavlink.MAV_CMD_IMAGE_START_CAPTURE,
             ("StartCamera", "disable"): mavlink.MAV_CMD_IMAGE_STOP_CAPTURE,
             ("StartLogs", "enable"): mavlink.MAV_CMD_LOGGING_START,
@@ -291,41 +132,33 @@ class Command:
     done: threading.Event = field(default_factory=threading.Event)
 
 
-class MavlinkVehicle:
+class MavlinkVehicle(RemoteVehicle):
     """The player's adapter to an ArduSub-class vehicle over MAVLink 2 (the Vehicle protocol).
 
     It does not raise if the vehicle is absent or refuses GUIDED or arming: the run then gets
     ``Link.lost`` (with the reason). A bad URL or a connection that cannot be opened raises
     :class:`MavlinkError`."""
 
-    simulated = False  # the runner polls with bounded waits
-
     def __init__(self, url: str = DEFAULT_URL, *, signing_key: bytes | None = None,
                  require_signing: bool = False, connect_timeout: float = 10.0,
                  link_timeout: float = 2.0, max_poll: float = MAX_POLL,
                  timestamp_file: Path | None = None, arm: bool = True):
+        super().__init__(max_poll=max_poll, max_extrapolation=MAX_EXTRAPOLATION)
         self.url = check_url(url)
         if require_signing and signing_key is None:
             raise MavlinkError("--require-signing needs a key",
                                "give --signing-key FILE or set $" + signing.ENV_KEY)
         self.signing_key, self.require_signing = signing_key, require_signing
-        self.connect_timeout, self.link_timeout, self.max_poll = (connect_timeout, link_timeout,
-                                                                  max_poll)
+        self.connect_timeout, self.link_timeout = connect_timeout, link_timeout
         self.timestamp_file = timestamp_file
         self.arm = arm
         self.conn: Any = None
         self.signing: signing.SigningState | None = None
         self._io = threading.Lock()  # every send and receive on the connection
-        self._lock = threading.Lock()  # the clock, the behaviours, the telemetry
         self._stop = threading.Event()
         self._seen = threading.Event()  # the vehicle's HEARTBEAT has come
         self._positioned = threading.Event()
         self._thread: threading.Thread | None = None
-        self._events: queue.Queue[EventMessage] = queue.Queue()
-        self._seq = 0
-        self._lost = False
-        self.lost_at: float | None = None  # monotonic time Link.lost was raised
-        self.lost_reason = ""
         self.last_heartbeat = 0.0  # monotonic
         self.mode: int | None = None
         self.armed = False
@@ -337,10 +170,7 @@ class MavlinkVehicle:
             "Surface": Surface("Surface"), "Alarms": Alarms("Alarms")}
         self._hold: dict[str, float] = {}  # the last setpoint, per degree of freedom
         self._setpoint_at = -math.inf  # vehicle time of the last setpoint
-        # the clock: vehicle time base_t at monotonic base_wall, running at speed x wall
-        self._base_t, self._base_wall, self._speed, self._clocked = 0.0, time.monotonic(), 1.0, False
         self._ref: tuple[float, float] | None = None  # (t, wall) the speed is measured from
-        self._last_now = 0.0
         self._pending: list[Command] = []
         self.commands_sent = 0
         self.acks_received = 0
@@ -642,8 +472,8 @@ class MavlinkVehicle:
 
     def _take_events(self, b: Behaviour) -> None:
         for name, data in b.events:
-            self._seq += 1
-            self._events.put(EventMessage(self._seq, self._vehicle_time(), b.name, name, data))
+            self._events.put(EventMessage(self._next_seq_locked(), self._vehicle_time_locked(),
+                                          b.name, name, data))
         b.events.clear()
 
     # -- the clock --------------------------------------------------------------------------------
@@ -656,41 +486,8 @@ class MavlinkVehicle:
         elif wall - self._ref[1] >= 0.2:  # the speed over the last fifth of a wall second
             self._speed = (t - self._ref[0]) / (wall - self._ref[1])
             self._ref = (t, wall)
-        self._base_t, self._base_wall, self._clocked = t, wall, True
-
-    def _vehicle_time(self) -> float:
-        if not self._clocked:
-            return self._base_t
-        elapsed = time.monotonic() - self._base_wall
         if not self._lost:
-            elapsed = min(elapsed, MAX_EXTRAPOLATION)
-        return self._base_t + elapsed * self._speed
-
-    def now(self) -> float:
-        with self._lock:
-            self._last_now = max(self._last_now, self._vehicle_time())
-            return self._last_now
-
-    @property
-    def speed(self) -> float:
-        return self._speed
-
-    def _link_lost(self, reason: str) -> None:
-        with self._lock:
-            if self._lost:
-                return
-            t = self._vehicle_time()
-            self._lost, self.lost_at, self.lost_reason = True, time.monotonic(), reason
-            # from now on the clock runs on wall time: the player's timers still fall due
-            self._base_t, self._base_wall, self._clocked = t, time.monotonic(), True
-            self._seq += 1
-            event = EventMessage(self._seq, t, "Link", "lost", {"reason": reason})
-        log.warning("link to the vehicle lost: %s", reason)
-        self._events.put(event)
-
-    @property
-    def lost(self) -> bool:
-        return self._lost
+            self._clock_locked(t)
 
     # -- the Vehicle protocol ---------------------------------------------------------------------
     def send(self, action: ActionMessage) -> None:
@@ -737,32 +534,6 @@ class MavlinkVehicle:
                 if self.tel.positioned:
                     self._control()
             self._take_events(b)
-
-    def receive(self, until: float) -> list[EventMessage]:
-        """The events that have arrived; waits for the first one at most until the clock reads
-        ``until`` and never longer than ``max_poll`` wall seconds."""
-        events: list[EventMessage] = []
-        wall_end = time.monotonic() + self.max_poll
-        while True:
-            try:
-                events.append(self._events.get_nowait())
-                continue
-            except queue.Empty:
-                pass
-            if events:
-                return events
-            remaining = wall_end - time.monotonic()
-            ahead = until - self.now()
-            if remaining <= 0 or ahead <= 0:
-                return events
-            wait = min(remaining, ahead / self._speed) if self._speed > 0 else remaining
-            try:
-                events.append(self._events.get(timeout=max(wait, 1e-4)))
-            except queue.Empty:
-                return events
-
-    def idle(self) -> bool:
-        return False
 
 
 def _result_name(result: int | None) -> str:
