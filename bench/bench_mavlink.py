@@ -20,8 +20,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import queue
-import socket
 import statistics
 import subprocess
 import sys
@@ -33,6 +31,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from vehicle_adapters.mavlink_link import MavlinkVehicle, mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402  (after: MAVLink 2)
+
+from tests.support import first_line, free_udp_port, stop  # the repository's test helpers
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -72,12 +72,6 @@ def peer(url: str) -> None:
     conn.close()
 
 
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def percentile(values: list[float], q: float) -> float:
     s = sorted(values)
     return s[min(len(s) - 1, int(round(q * (len(s) - 1))))]
@@ -88,10 +82,7 @@ def measure(argv: list[str], url: str, count: int, warmup: int) -> dict[str, flo
     proc = subprocess.Popen(argv, cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                             text=True, env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1"))
     try:
-        lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(target=lambda: lines.put(proc.stdout.readline()),  # type: ignore
-                         daemon=True).start()
-        if "ready" not in lines.get(timeout=30):
+        if "ready" not in (first_line(proc, 30) or ""):
             raise RuntimeError(f"{argv[0]} did not start")
         with MavlinkVehicle(url, connect_timeout=10) as vehicle:
             if vehicle.lost:
@@ -107,15 +98,7 @@ def measure(argv: list[str], url: str, count: int, warmup: int) -> dict[str, flo
     finally:
         if proc.stdin:
             proc.stdin.close()
-        if proc.poll() is None:
-            proc.terminate()
-        try:
-            proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout=5)
-        if proc.stdout:
-            proc.stdout.close()
+        stop(proc)
     return {"median_ms": round(statistics.median(ms), 4), "p99_ms": round(percentile(ms, 0.99), 4),
             "max_ms": round(max(ms), 4), "unanswered": retried}
 

@@ -22,7 +22,6 @@ import argparse
 import json
 import os
 import queue
-import socket
 import statistics
 import subprocess
 import sys
@@ -37,6 +36,8 @@ import zenoh  # noqa: E402
 
 from vehicle_adapters.aal import ActionMessage, EventMessage, InvalidMessage  # noqa: E402
 from vehicle_adapters.zenoh_link import ZenohVehicle, keys, zenoh_config  # noqa: E402
+
+from tests.support import first_line, free_endpoint  # the repository's test helpers
 
 NAME = "bench"
 PING, PONG = "bench/raw/ping", "bench/raw/pong"
@@ -53,8 +54,14 @@ def echo(endpoint: str) -> None:
     pong = session.declare_publisher(PONG, congestion_control=block, express=True,
                                      priority=zenoh.Priority.INTERACTIVE_HIGH)
     clock = session.declare_publisher(k["clock"], express=True)
+    behaviours = session.declare_publisher(f"{k['telemetry']}/behaviours")
     seq = iter(range(1 << 62))
     t0 = time.monotonic()
+    runs: list[str] = []  # the players' runs, as a vehicle reports the one it takes
+
+    def on_player(sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            runs.append(str(sample.key_expr).rpartition("/")[2])
 
     def on_action(sample: zenoh.Sample) -> None:
         try:
@@ -66,6 +73,8 @@ def echo(endpoint: str) -> None:
 
     entities: list[Any] = [session.declare_subscriber(k["action"], on_action),
                 session.declare_subscriber(PING, lambda s: pong.put(s.payload.to_bytes())),
+                session.liveliness().declare_subscriber(f"{k['alive_player']}/*", on_player,
+                                                        history=True),
                 session.liveliness().declare_token(k["alive_vehicle"])]
     clock.put(json.dumps({"t": 0.0, "speed": 1.0, "running": True}))
     print("ready", flush=True)
@@ -76,8 +85,10 @@ def echo(endpoint: str) -> None:
         stop.set()
 
     threading.Thread(target=wait_stdin, daemon=True).start()
-    while not stop.wait(0.1):  # the clock, as a vehicle would publish it
+    while not stop.wait(0.1):  # the clock and the run taken, as a vehicle would publish them
         clock.put(json.dumps({"t": time.monotonic() - t0, "speed": 1.0, "running": True}))
+        if runs:
+            behaviours.put(json.dumps({"run": runs[-1]}))
     for e in entities:
         e.undeclare()
     session.close()  # type: ignore[no-untyped-call]
@@ -89,18 +100,13 @@ def percentile(values: list[float], q: float) -> float:
 
 
 def bench(count: int, warmup: int) -> dict[str, object]:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        endpoint = f"tcp/127.0.0.1:{s.getsockname()[1]}"
+    endpoint = free_endpoint()
     proc = subprocess.Popen([sys.executable, __file__, "--echo", endpoint],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                             env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1"))
     raw = None
     try:
-        lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(target=lambda: lines.put(proc.stdout.readline()),  # type: ignore
-                         daemon=True).start()
-        if "ready" not in lines.get(timeout=20):
+        if "ready" not in (first_line(proc, 20) or ""):
             raise RuntimeError("the echo did not start")
         pongs: queue.Queue[bytes] = queue.Queue()
         raw = zenoh.open(zenoh_config(endpoint, connect=True))

@@ -1,10 +1,16 @@
-"""Shared helpers: the repository's paths, compiling from text, and running the real CLIs."""
+"""Shared helpers: the repository's paths, compiling from text, running the real CLIs, and
+subprocesses on loopback (free ports, started until ready, always stopped)."""
 
 from __future__ import annotations
 
 import os
+import queue
+import socket
 import subprocess
 import sys
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -34,3 +40,99 @@ def write(tmp_path: Path, text: str, name: str = "m.mcl") -> Path:
 
 # Generic blocks for testing templates, shipped with the package (mcl/tasks/generic.tasks).
 GENERIC_TASKS = (REPO / "mcl" / "tasks" / "generic.tasks").read_text("utf-8")
+
+
+# -- subprocesses on loopback ---------------------------------------------------------------------
+
+def free_tcp_port() -> int:
+    """A TCP port on 127.0.0.1 that was free a moment ago."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def free_udp_port() -> int:
+    """A UDP port on 127.0.0.1 that was free a moment ago."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def free_endpoint(scheme: str = "tcp") -> str:
+    """A Zenoh endpoint on a free loopback port, e.g. ``tcp/127.0.0.1:PORT``."""
+    return f"{scheme}/127.0.0.1:{free_tcp_port()}"
+
+
+def first_line(proc: subprocess.Popen[str], timeout: float) -> str | None:
+    """The first line of the process's stdout ('' if it ended first), read on a thread;
+    None if there is none within ``timeout`` s."""
+    lines: queue.Queue[str] = queue.Queue()
+    threading.Thread(target=lambda: lines.put(proc.stdout.readline()),  # type: ignore
+                     daemon=True).start()
+    try:
+        return lines.get(timeout=timeout)
+    except queue.Empty:
+        return None
+
+
+def end(proc: subprocess.Popen[str]) -> None:
+    """Terminate the process, wait 5 s, kill it, wait 5 s; its pipes are left open."""
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=5)
+
+
+def stop(proc: subprocess.Popen[str]) -> None:
+    """:func:`end` the process, then close its stdout and stderr."""
+    end(proc)
+    for stream in (proc.stdout, proc.stderr):
+        if stream:
+            stream.close()
+
+
+def _stderr(proc: subprocess.Popen[str], grace: float) -> str:
+    """What the process wrote on stderr, once it has ended (on its own within ``grace`` s, or
+    ended); read on a thread, for at most 5 s."""
+    try:
+        proc.wait(timeout=grace)
+    except subprocess.TimeoutExpired:
+        end(proc)
+    got: list[str] = []
+    reader = threading.Thread(target=lambda: got.append(proc.stderr.read()),  # type: ignore
+                              daemon=True)
+    reader.start()
+    reader.join(5)
+    return got[0][-2000:] if got else "(not readable within 5 s)"
+
+
+@contextmanager
+def started(args: list[str], *, ready: str | None = "ready", timeout: float = 20,
+            env: dict[str, str] | None = None, cwd: Path | str = REPO
+            ) -> Iterator[subprocess.Popen[str]]:
+    """``args`` as a subprocess (stdin closed, stdout and stderr piped, text), stopped on exit.
+
+    With ``ready``, yields once the first line of stdout has come (within ``timeout`` s) and
+    contains it (``""``: any line), else fails the test with the process's stderr; with None,
+    yields at once. ``env`` defaults to this environment with PYTHONDONTWRITEBYTECODE=1."""
+    if env is None:
+        env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
+    proc = subprocess.Popen(args, cwd=cwd, env=env, stdin=subprocess.DEVNULL,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        if ready is not None:
+            name = " ".join(Path(a).name if i == 0 else a for i, a in enumerate(args[:3]))
+            line = first_line(proc, timeout)
+            if line is None:
+                pytest.fail(f"{name}: no line within {timeout:g} s; stderr: {_stderr(proc, 0)}")
+            if not line or ready not in line:
+                err = _stderr(proc, 5)
+                said = f"first line {line!r}" if line else "stdout ended before any line"
+                pytest.fail(f"{name}: {said}, expected one with {ready!r} "
+                            f"(exit status {proc.returncode}); stderr: {err}")
+        yield proc
+    finally:
+        stop(proc)

@@ -11,11 +11,8 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-import queue
-import socket
 import subprocess
 import sys
-import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Iterator
@@ -30,7 +27,7 @@ from pymavlink import mavutil  # noqa: E402
 
 from vehicle_adapters import ardusub, signing  # noqa: E402
 
-from .support import REPO  # noqa: E402
+from .support import REPO, first_line, free_udp_port  # noqa: E402
 
 mav = mavutil.mavlink
 WAIT = 20.0  # wall s: the longest any single wait may take before the test fails
@@ -39,12 +36,6 @@ GUIDED, SURFACE, MANUAL = ardusub.MODES["GUIDED"], ardusub.MODES["SURFACE"], \
 ARMED = mav.MAV_MODE_FLAG_SAFETY_ARMED
 POSITION_ONLY = 0b0000_1111_1111_1000  # type_mask: x, y, z and yaw
 VELOCITY_ONLY = 0b0000_1101_1100_0111  # type_mask: vx, vy, vz and yaw rate
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 class Vehicle:
@@ -57,13 +48,7 @@ class Vehicle:
              f"udpout:127.0.0.1:{port}", *args],
             cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
             stderr=self.log, text=True)
-        lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(target=lambda: lines.put(self.proc.stdout.readline()),  # type: ignore
-                         daemon=True).start()
-        try:
-            self.ready = lines.get(timeout=WAIT)
-        except queue.Empty:
-            self.ready = ""
+        self.ready = first_line(self.proc, WAIT) or ""  # "" if none within WAIT s
         self.output = ""
 
     def stop(self) -> str:

@@ -38,7 +38,7 @@ from vehicle_adapters.inprocess import InProcess
 from vehicle_adapters.mavlink_link import MODES, MavlinkVehicle, mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: I001  (MAVLink 2 is set)
 
-from .support import BIN, MISSIONS, REPO
+from .support import BIN, MISSIONS, REPO, end, free_udp_port, started, stop
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
 SPEED = 100.0  # the dam mission lasts ~1200 s of simulated time: ~15 s of wall time here
@@ -46,27 +46,11 @@ SEED = 1
 MAVPROXY = BIN / "mavproxy.py"
 
 
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def env(tmp_path: Path) -> dict[str, str]:
     """The children's environment: signing timestamps kept under tmp_path, no key inherited."""
     e = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", MCL_STATE_DIR=str(tmp_path / "state"))
     e.pop("MCL_MAVLINK_KEY", None)
     return e
-
-
-def stop(proc: subprocess.Popen[str]) -> None:
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout=5)
 
 
 class Lines:
@@ -79,20 +63,28 @@ class Lines:
 
     def _read(self, proc: subprocess.Popen[str]) -> None:
         assert proc.stdout is not None
-        for line in proc.stdout:
-            self.queue.put(line)
+        try:
+            for line in proc.stdout:
+                self.queue.put(line)
+        except (OSError, ValueError):  # the pipe was closed under us (the process stopped)
+            pass
         self.queue.put("")  # end of output
+
+    def _next(self, deadline: float) -> str | None:
+        """The next line before the deadline, kept in ``seen``; None at the deadline or at the
+        end of the output."""
+        try:
+            line = self.queue.get(timeout=max(0.01, deadline - time.monotonic()))
+        except queue.Empty:
+            return None
+        if line == "":
+            return None
+        self.seen.append(line)
+        return line
 
     def wait_for(self, text: str, timeout: float) -> str:
         deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            try:
-                line = self.queue.get(timeout=max(0.01, deadline - time.monotonic()))
-            except queue.Empty:
-                break
-            if line == "":
-                break
-            self.seen.append(line)
+        while time.monotonic() < deadline and (line := self._next(deadline)) is not None:
             if text in line:
                 return line
         pytest.fail(f"no line with {text!r} within {timeout:g} s; got {self.seen[-10:]}")
@@ -100,35 +92,24 @@ class Lines:
     def drain(self, timeout: float) -> None:
         """Keep what the process still says until it ends (bounded)."""
         deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            try:
-                line = self.queue.get(timeout=max(0.01, deadline - time.monotonic()))
-            except queue.Empty:
-                return
-            if line == "":
-                return
-            self.seen.append(line)
+        while time.monotonic() < deadline and self._next(deadline) is not None:
+            pass
 
 
 @contextmanager
 def vehicle_process(port: int, tmp_path: Path, *extra: str, speed: float = SPEED
                     ) -> Iterator[tuple[subprocess.Popen[str], Lines]]:
     """``mcl vehicle --mavlink udpout:127.0.0.1:PORT`` until it says it is ready."""
-    proc = subprocess.Popen(
-        [str(BIN / "mcl"), "vehicle", "--mavlink", f"udpout:127.0.0.1:{port}", "--speed",
-         str(speed), "--seed", str(SEED), *extra],
-        cwd=REPO, env=env(tmp_path), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True)
-    lines = Lines(proc)
-    try:
-        lines.wait_for("ready", 20)
-        yield proc, lines
-    finally:
-        stop(proc)
-        lines.drain(5)  # the vehicle's summary at exit
-        for stream in (proc.stdout, proc.stderr):
-            if stream:
-                stream.close()
+    with started([str(BIN / "mcl"), "vehicle", "--mavlink", f"udpout:127.0.0.1:{port}",
+                  "--speed", str(speed), "--seed", str(SEED), *extra],
+                 ready=None, env=env(tmp_path)) as proc:
+        lines = Lines(proc)
+        try:
+            lines.wait_for("ready", 20)
+            yield proc, lines
+        finally:
+            end(proc)
+            lines.drain(5)  # the vehicle's summary at exit
 
 
 @contextmanager
@@ -147,8 +128,6 @@ def mavproxy(master_port: int, out_port: int, tmp_path: Path) -> Iterator[None]:
         yield
     finally:
         stop(proc)
-        if proc.stdout:
-            proc.stdout.close()
 
 
 def mcl_run(port: int, tmp_path: Path, *extra: str) -> subprocess.Popen[str]:
@@ -163,7 +142,7 @@ def finish(proc: subprocess.Popen[str], timeout: float) -> tuple[int, str, str]:
     try:
         out, err = proc.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:
-        stop(proc)
+        end(proc)  # pipes left open: what it said is in the message
         out, err = proc.communicate()
         pytest.fail(f"mcl run did not end within {timeout:g} s: {out[-2000:]} {err[-2000:]}")
     return proc.returncode, out, err

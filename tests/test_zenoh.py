@@ -13,10 +13,8 @@ import queue
 import socket
 import subprocess
 import sys
-import threading
 import time
-from collections.abc import Iterator
-from contextlib import ExitStack, contextmanager
+from contextlib import AbstractContextManager, ExitStack
 from typing import Any
 
 import pytest
@@ -32,7 +30,7 @@ from vehicle_adapters.aal import ActionMessage  # noqa: E402
 from vehicle_adapters.inprocess import InProcess  # noqa: E402
 from vehicle_adapters.zenoh_link import ZenohVehicle, keys, zenoh_config  # noqa: E402
 
-from .support import MISSIONS, REPO  # noqa: E402
+from .support import MISSIONS, REPO, free_endpoint, started  # noqa: E402
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
 SPEED = 100.0  # the dam mission lasts ~1200 s of simulated time: ~12 s of wall time
@@ -40,43 +38,11 @@ SEED = 1
 POLL = 0.5  # s of vehicle time: the runner's longest wait (5 ms of wall time at SPEED)
 
 
-def free_endpoint() -> str:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
-
-
-@contextmanager
 def vehicle_process(endpoint: str, *extra: str, speed: float = SPEED
-                    ) -> Iterator[subprocess.Popen[str]]:
+                    ) -> AbstractContextManager[subprocess.Popen[str]]:
     """The vehicle server as a real subprocess; yields once it says it is ready."""
-    env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "vehicle_adapters.serve", "--zenoh", endpoint,
-         "--speed", str(speed), "--seed", str(SEED), *extra],
-        cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True)
-    try:
-        lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(target=lambda: lines.put(proc.stdout.readline()),  # type: ignore
-                         daemon=True).start()
-        try:
-            line = lines.get(timeout=20)
-        except queue.Empty:
-            pytest.fail("the vehicle server did not become ready within 20 s")
-        assert "ready" in line, f"vehicle server: {line!r} {proc.poll()}"
-        yield proc
-    finally:
-        if proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait(timeout=5)
-        for stream in (proc.stdout, proc.stderr):
-            if stream:
-                stream.close()
+    return started([sys.executable, "-m", "vehicle_adapters.serve", "--zenoh", endpoint,
+                    "--speed", str(speed), "--seed", str(SEED), *extra])
 
 
 def transitions(records: list[Record]) -> list[str]:
@@ -508,3 +474,50 @@ def test_vehicle_frozen_mid_mission_gives_link_lost_within_the_lease(compiled: A
     assert delay <= 1.0 + 0.25, f"Link.lost {delay:.2f} s after the freeze"
     assert [r.data["event"] for r in records if r.kind == "event"][-1] == "Link.lost"
     assert outcome.status == "fail", outcome
+
+
+def test_a_mission_that_catches_link_lost_reacts_as_written(tmp_path: Any) -> None:
+    """TRY { GoTo } CATCH { LinkLost() } DO { Wait }: the vehicle killed mid-GoTo, the
+    mission catches the loss and ends as its DO block does (ok), and the log says so."""
+    endpoint = free_endpoint()
+    mission = tmp_path / "watch.mcl"
+    mission.write_text("PARAM far = (-20, 30, 5, 0 deg);\n"
+                       "MISSION link_watch {\n"
+                       "    TRY { GoTo(far) } CATCH { LinkLost() } DO { Wait(2 s) }\n"
+                       "}\n", encoding="utf-8")
+    log = tmp_path / "run.jsonl"
+    with vehicle_process(endpoint) as vehicle:
+        telemetry = Telemetry(endpoint)
+        try:
+            player = mcl("run", str(mission), "--vehicle", f"zenoh:{endpoint}", "--quiet",
+                         "--log", str(log))
+            try:
+                wait_for(lambda: "GoTo" in telemetry.last().get("active", []), "GoTo enabled")
+                vehicle.kill()
+                out, err = player.communicate(timeout=60)
+            finally:
+                stop(player)
+        finally:
+            telemetry.close()
+    assert player.returncode == 0, out + err
+    assert "mission link_watch ended OK" in out
+    records = [json.loads(line) for line in log.read_text().splitlines()]
+    events = [r["event"] for r in records if r["kind"] == "event"]
+    assert events == ["Link.lost"]
+    causes = [r["cause"] for r in records if r["kind"] == "fire" and r["cause"] != "immediate"]
+    assert causes[0] == "Link.lost" and causes[-1] == "timer"  # caught, then the DO's Wait
+    assert not any("no block catches it" in r.get("note", "") for r in records)
+
+
+def test_multicast_scouting_is_off_unless_asked_for() -> None:
+    """Only the configuration is checked: multicast does not stay on loopback, and tests keep
+    to loopback."""
+    def multicast(config: Any) -> Any:
+        return json.loads(config.get_json("scouting/multicast/enabled"))
+
+    endpoint = free_endpoint()
+    for options in ({"listen": True}, {"connect": True}, {"connect": True, "mode": "client"}):
+        assert multicast(zenoh_config(endpoint, **options)) is False
+        assert multicast(zenoh_config(endpoint, scouting=True, **options)) is True
+        assert json.loads(zenoh_config(endpoint, **options).get_json(
+            "scouting/gossip/enabled")) is False

@@ -19,12 +19,11 @@ import json
 import os
 import queue
 import shutil
-import socket
 import subprocess
 import threading
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +36,7 @@ from vehicle_adapters.aal import ActionMessage  # noqa: E402
 from vehicle_adapters.zenoh_link import ZenohVehicle, keys, zenoh_config  # noqa: E402
 from vehicle_adapters.zenoh_security import Security  # noqa: E402
 
-from .support import BIN, REPO, cli  # noqa: E402
+from .support import BIN, REPO, cli, free_endpoint, started  # noqa: E402
 
 SPEED = 50.0
 K = keys("auv")
@@ -46,75 +45,17 @@ WAIT = 10.0  # wall s: the longest wait for something that must happen
 NEVER = 1.0  # wall s: how long to wait for something that must not happen (a refused session)
 
 
-def free_endpoint(scheme: str = "tcp") -> str:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"{scheme}/127.0.0.1:{s.getsockname()[1]}"
-
-
-@contextmanager
-def vehicle_process(endpoint: str, *extra: str) -> Iterator[subprocess.Popen[str]]:
+def vehicle_process(endpoint: str, *extra: str) -> AbstractContextManager[subprocess.Popen[str]]:
     """``mcl vehicle`` as a real subprocess; yields once it says it is ready."""
-    env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
-    proc = subprocess.Popen(
-        [str(BIN / "mcl"), "vehicle", "--zenoh", endpoint, "--speed", str(SPEED), *extra],
-        cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True)
-    try:
-        lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(target=lambda: lines.put(proc.stdout.readline()),  # type: ignore
-                         daemon=True).start()
-        try:
-            line = lines.get(timeout=20)
-        except queue.Empty:
-            pytest.fail("the vehicle did not become ready within 20 s")
-        if "ready" not in line:
-            proc.wait(timeout=5)
-            pytest.fail(f"the vehicle did not start: {proc.stderr.read()}")  # type: ignore
-        yield proc
-    finally:
-        if proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait(timeout=5)
-        for stream in (proc.stdout, proc.stderr):
-            if stream:
-                stream.close()
+    return started([str(BIN / "mcl"), "vehicle", "--zenoh", endpoint, "--speed", str(SPEED),
+                    *extra])
 
 
-@contextmanager
-def monitor_process(endpoint: str, *extra: str) -> Iterator[subprocess.Popen[str]]:
+def monitor_process(endpoint: str, *extra: str) -> AbstractContextManager[subprocess.Popen[str]]:
     """``mcl monitor --until-end`` as a real subprocess (an observer); yields once it has
     printed its first line (it is connected and has asked for the mission's status)."""
-    proc = subprocess.Popen(
-        [str(BIN / "mcl"), "monitor", "--zenoh", endpoint, "--until-end", "--plain",
-         "--timeout", "30", *extra], cwd=REPO, stdin=subprocess.DEVNULL,
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1"))
-    try:
-        lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(target=lambda: lines.put(proc.stdout.readline()),  # type: ignore
-                         daemon=True).start()
-        try:
-            first = lines.get(timeout=20)
-        except queue.Empty:
-            pytest.fail("the monitor printed nothing within 20 s")
-        assert first, f"the monitor ended at once: {proc.stderr.read()}"  # type: ignore
-        yield proc
-    finally:
-        if proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait(timeout=5)
-        for stream in (proc.stdout, proc.stderr):
-            if stream:
-                stream.close()
+    return started([str(BIN / "mcl"), "monitor", "--zenoh", endpoint, "--until-end", "--plain",
+                    "--timeout", "30", *extra], ready="")
 
 
 @contextmanager

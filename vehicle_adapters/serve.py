@@ -65,7 +65,8 @@ class VehicleServer:
                  faults: Iterable[tuple[str, float]] = (),
                  stop: threading.Event | None = None, player_timeout: float = 3.0,
                  wait_for_player: bool = True, lease_ms: int = LEASE_MS,
-                 ready: threading.Event | None = None, security: Security | None = None):
+                 ready: threading.Event | None = None, security: Security | None = None,
+                 scouting: bool = False):
         if not speed > 0:
             raise ValueError("speed must be positive")
         self.endpoint = endpoint
@@ -78,6 +79,7 @@ class VehicleServer:
         self.wait_for_player = wait_for_player
         self.lease_ms = lease_ms
         self.security = security
+        self.scouting = scouting
         self.ready = ready or threading.Event()
         self._actions: queue.Queue[ActionMessage] = queue.Queue()
         self._lock = threading.Lock()
@@ -137,7 +139,8 @@ class VehicleServer:
     def run(self) -> None:
         k = self.keys
         session = zenoh.open(zenoh_config(self.endpoint, listen=True, lease_ms=self.lease_ms,
-                                          security=self.security, role="vehicle"))
+                                          security=self.security, role="vehicle",
+                                          scouting=self.scouting))
         try:
             pub = {
                 "event": session.declare_publisher(
@@ -293,6 +296,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="surface after the player has been gone this long (default 3)")
     p.add_argument("--no-wait", action="store_true",
                    help="start the clock at once instead of when a player appears")
+    p.add_argument("--scouting", action="store_true",
+                   help="also be found by Zenoh's multicast scouting (off by default)")
     p.add_argument("--log-level", default="WARNING")
     zenoh_security.add_arguments(p, "vehicle")
     args = p.parse_args(argv)
@@ -308,7 +313,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ready = threading.Event()
     server = VehicleServer(args.zenoh, args.name, args.speed, args.seed, args.inject, stop,
                            args.player_timeout, wait_for_player=not args.no_wait, ready=ready,
-                           security=security)
+                           security=security, scouting=args.scouting)
     announcer = threading.Thread(target=lambda: ready.wait() and print(
         f"vehicle {args.name} ready on {args.zenoh}", flush=True), daemon=True)
     announcer.start()

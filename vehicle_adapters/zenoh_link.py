@@ -69,15 +69,17 @@ def keys(vehicle: str) -> dict[str, str]:
 def zenoh_config(endpoint: str = DEFAULT_ENDPOINT, mode: str = "peer", *,
                  listen: bool = False, connect: bool = False,
                  lease_ms: int = LEASE_MS, security: Security | None = None,
-                 role: str = "player") -> zenoh.Config:
+                 role: str = "player", scouting: bool = False) -> zenoh.Config:
     """The one place a Zenoh configuration is built.
 
     ``listen``: accept connections on ``endpoint`` (the vehicle); ``connect``: connect to it
     (the player, tools). Observers (``mcl monitor``) connect in ``client`` mode: the vehicle,
     a peer, forwards to its clients what other peers (the player) publish, which peers do not
     do for one another. Neither: no endpoint (a session that only talks to itself). Multicast
-    scouting is off, gossip too: peers meet only through the explicit endpoints. A peer that
-    does not listen has no listening socket at all (Zenoh's default would be ``tcp/[::]:0``).
+    scouting is off unless ``scouting`` (``--scouting``: on a LAN, also find the vehicle by
+    Zenoh's multicast scouting, UDP 224.0.0.224:7446), gossip always: otherwise peers meet only
+    through the explicit endpoints. A peer that does not listen has no listening socket at all
+    (Zenoh's default would be ``tcp/[::]:0``).
     """
     if listen == connect and listen:
         raise ValueError("listen or connect, not both")
@@ -91,7 +93,7 @@ def zenoh_config(endpoint: str = DEFAULT_ENDPOINT, mode: str = "peer", *,
     elif connect:  # keep retrying in the background: the liveliness watch reports absence
         config.insert_json5("connect/exit_on_failure", "false")
         config.insert_json5("connect/timeout_ms", "-1")
-    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("scouting/multicast/enabled", json.dumps(scouting))
     config.insert_json5("scouting/gossip/enabled", "false")
     config.insert_json5("transport/link/tx/lease", str(int(lease_ms)))
     config.insert_json5("transport/link/tx/keep_alive", "4")
@@ -135,14 +137,15 @@ class ZenohVehicle(RemoteVehicle):
     def __init__(self, endpoint: str = DEFAULT_ENDPOINT, vehicle: str = "auv", *,
                  connect_timeout: float = 5.0, lease_ms: int = LEASE_MS,
                  max_poll: float = MAX_POLL, config: zenoh.Config | None = None,
-                 security: Security | None = None):
+                 security: Security | None = None, scouting: bool = False):
         super().__init__(max_poll=max_poll, max_extrapolation=MAX_EXTRAPOLATION)
         self.endpoint = endpoint
         self.name = vehicle
         self.keys = keys(vehicle)
         self.connect_timeout = connect_timeout
         self._config = config or zenoh_config(endpoint, connect=True, lease_ms=lease_ms,
-                                              security=security, role="player")
+                                              security=security, role="player",
+                                              scouting=scouting)
         self._alive = threading.Event()  # the vehicle's token is present
         self._clocked = threading.Event()  # a clock message has arrived
         self._taken = threading.Event()  # the vehicle's telemetry names this run

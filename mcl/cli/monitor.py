@@ -226,6 +226,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="give up after this many wall seconds (exit 3)")
     p.add_argument("--plain", action="store_true",
                    help="one line per change instead of a screen (default when not a terminal)")
+    p.add_argument("--scouting", action="store_true",
+                   help="also find the vehicle by Zenoh's multicast scouting (off by default)")
     zenoh_security.add_arguments(p, "observer")
     args = p.parse_args(argv)
     try:
@@ -244,7 +246,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop.set())
     session = _open(zenoh, zenoh_config(args.zenoh, "client", connect=True,
-                                        security=security, role="observer"),
+                                        security=security, role="observer",
+                                        scouting=args.scouting),
                     args.zenoh, args.timeout, stop)
     if session is None:
         return EXIT_TIMEOUT if not stop.is_set() else EXIT_OK

@@ -66,8 +66,10 @@ def _parser() -> argparse.ArgumentParser:
     _common(r)
     from vehicle_adapters import zenoh_security
 
-    zenoh_security.add_arguments(r.add_argument_group("Zenoh link (--vehicle zenoh:...)"),
-                                 "player")
+    z = r.add_argument_group("Zenoh link (--vehicle zenoh:...)")
+    z.add_argument("--scouting", action="store_true",
+                   help="also find the vehicle by Zenoh's multicast scouting (off by default)")
+    zenoh_security.add_arguments(z, "player")
     m = r.add_argument_group("MAVLink link (--vehicle mavlink:...)")
     m.add_argument("--signing-key", metavar="FILE",
                    help="MAVLink 2 signing: the secret key file (default: $MCL_MAVLINK_KEY "
@@ -228,7 +230,8 @@ def _vehicle(args: argparse.Namespace) -> tuple[Any, Any]:
             security = zenoh_security.from_args(args, "player")
         except ValueError as exc:
             raise _Invalid(str(exc)) from None
-        return ZenohVehicle(where or DEFAULT_ENDPOINT, "auv", security=security), None
+        return ZenohVehicle(where or DEFAULT_ENDPOINT, "auv", security=security,
+                            scouting=args.scouting), None
     if kind == "mavlink":
         from vehicle_adapters.mavlink_link import DEFAULT_URL, MavlinkVehicle
         from vehicle_adapters.signing import SigningError, load_key
