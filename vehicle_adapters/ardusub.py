@@ -25,29 +25,8 @@ the clock waits for a ground station). A stack tick costs about 0.5 ms here, so 
 keeps up with ``--speed`` up to about 40 on a 2-core machine shared with the player; asked for
 more, its clock falls behind wall time x speed (the player follows the clock it sends).
 
-Heartbeat. ``type`` MAV_TYPE_SUBMARINE, ``autopilot`` MAV_AUTOPILOT_ARDUPILOTMEGA, ``base_mode``
-CUSTOM_MODE_ENABLED | MANUAL_INPUT_ENABLED | STABILIZE_ENABLED (not in MANUAL/ACRO) |
-GUIDED_ENABLED (GUIDED) | SAFETY_ARMED (armed); ``custom_mode`` the ArduSub mode number
-(STABILIZE 0, ACRO 1, ALT_HOLD 2, AUTO 3, GUIDED 4, CIRCLE 7, SURFACE 9, POSHOLD 16, MANUAL 19;
-it boots in MANUAL, disarmed); ``system_status`` STANDBY (disarmed), ACTIVE (armed), CRITICAL
-(any failsafe or alarm active).
-
-Telemetry by default (Hz of the simulated clock; changed by MAV_CMD_SET_MESSAGE_INTERVAL, read
-by MAV_CMD_GET_MESSAGE_INTERVAL, one sent at once by MAV_CMD_REQUEST_MESSAGE): HEARTBEAT 1,
-SYS_STATUS 1, SYSTEM_TIME 1, ATTITUDE 10, LOCAL_POSITION_NED 10, GLOBAL_POSITION_INT 4,
-SCALED_PRESSURE (inside the vessel: the housing's pressure and temperature) 1, SCALED_PRESSURE2
-(the depth sensor) 4, DISTANCE_SENSOR 5, VFR_HUD 4, BATTERY_STATUS 1. Position and velocity are
-the navigator's estimate (paper §4), not the truth. The local NED frame is the simulation's world
-frame: x towards the wall (the wall is x = 0, the vehicle works at x < 0), y along the wall,
-z depth (down), yaw 0 facing the wall. GLOBAL_POSITION_INT places that origin at
-:data:`ORIGIN_LAT`, :data:`ORIGIN_LON` (flat earth).
-
-DISTANCE_SENSOR is the sonar wall tracker (paper §5): id 1, type MAV_DISTANCE_SENSOR_ULTRASOUND,
-orientation MAV_SENSOR_ROTATION_CUSTOM (100) with ``quaternion`` the rotation about z from the
-body frame to the wall's normal (the bearing of the closest point of the wall relative to the
-heading: the heading towards the wall is yaw + that bearing), ``current_distance`` the
-perpendicular distance to the wall in cm, ``min_distance`` 30, ``max_distance`` 5000; while the
-wall is not tracked ``current_distance`` is 5001 (max + 1: MAVLink's "nothing detected").
+Heartbeat, telemetry (rates, frames) and the sonar wall as DISTANCE_SENSOR: see
+:mod:`vehicle_adapters.ardusub_telemetry`.
 
 Commands. Every COMMAND_LONG (or COMMAND_INT) for system 1 gets a COMMAND_ACK: MAV_CMD_DO_SET_MODE
 (param2 the mode number; SET_MODE messages too, acknowledged with command 11 as ArduPilot does),
@@ -132,6 +111,7 @@ from .ardusub_protocol import (  # noqa: E402
     VEHICLE_SYSID,
     parse_url,
 )
+from .ardusub_telemetry import STREAMS, Streams, Telemetry  # noqa: E402
 
 log = logging.getLogger(__name__)
 mav = mavutil.mavlink
@@ -149,16 +129,6 @@ ALARM_REPEAT = 5.0  # simulated s between repeats of an alarm's STATUSTEXT
 MAX_TEMPERATURE = 50.0  # degC (FS_TEMP_MAX; the stack's Alarms default)
 MAX_PRESSURE = 1.5  # bar inside the vessel (FS_PRESS_MAX; the stack's Alarms default)
 
-STREAMS = {  # message: default rate, Hz of the simulated clock (ArduSub's usual rates)
-    "HEARTBEAT": 1.0, "SYS_STATUS": 1.0, "SYSTEM_TIME": 1.0, "ATTITUDE": 10.0,
-    "LOCAL_POSITION_NED": 10.0, "GLOBAL_POSITION_INT": 4.0, "SCALED_PRESSURE": 1.0,
-    "SCALED_PRESSURE2": 4.0, "DISTANCE_SENSOR": 5.0, "VFR_HUD": 4.0, "BATTERY_STATUS": 1.0,
-}
-SONAR_MIN_CM, SONAR_MAX_CM = 30, 5000
-ORIGIN_LAT, ORIGIN_LON = 41.9850, 2.6170  # deg: the local frame's origin (near Pasteral dam)
-EARTH_RADIUS = 6_378_137.0  # m
-WATER_DENSITY = 997.0  # kg/m3, fresh water (ArduSub's default)
-SURFACE_PRESSURE_HPA = 1013.25
 GUIDED_VELOCITY_TIMEOUT = 3.0  # simulated s a velocity setpoint lasts
 PILOT_SPEED, PILOT_YAW_RATE = 0.4, 0.3  # m/s and rad/s at full stick
 MAX_SLEEP = 0.01  # wall s: the loop looks at its inbox at least this often
@@ -186,40 +156,6 @@ class Velocity(bh.Behaviour):
         else:
             rate = self.param("yaw_rate", 0.0)
         return bh.Response({"x": vx, "y": vy, "z": vz, "yaw": rate})
-
-
-class Streams:
-    """When each telemetry message is due, on the simulated clock; SET_MESSAGE_INTERVAL."""
-
-    def __init__(self, rates: dict[str, float]) -> None:
-        self.ids = {getattr(mav, f"MAVLINK_MSG_ID_{name}"): name for name in rates}
-        self.default = {name: 1.0 / hz for name, hz in rates.items()}
-        self.interval: dict[str, float | None] = dict(self.default)
-        self.next = {name: 0.0 for name in rates}
-
-    def set(self, msg_id: int, interval_us: float) -> bool:
-        """MAVLink's rule: -1 stops it, 0 restores the default, > 0 sets the interval."""
-        name = self.ids.get(msg_id)
-        if name is None:
-            return False
-        if interval_us < 0:
-            self.interval[name] = None
-        else:
-            self.interval[name] = self.default[name] if interval_us == 0 else interval_us / 1e6
-        return True
-
-    def get_us(self, msg_id: int) -> int:
-        interval = self.interval.get(self.ids.get(msg_id, ""))
-        return -1 if interval is None else round(interval * 1e6)
-
-    def due(self, t: float) -> list[str]:
-        out = []
-        for name, interval in self.interval.items():
-            if interval is not None and t + 1e-9 >= self.next[name]:
-                out.append(name)
-                # keep the cadence, but never send a burst after a pause
-                self.next[name] = max(self.next[name] + interval, t + interval / 2)
-        return out
 
 
 def check_url(url: str) -> str:
@@ -256,6 +192,7 @@ class ArduSubVehicle:
         self.stack = IctineuStack(StackConfig(seed=seed, faults=list(faults)))
         self.stack.behaviours["Velocity"] = Velocity()
         self.streams = Streams(STREAMS)
+        self.telemetry = Telemetry(self)
         self.mode, self.armed = MODES["MANUAL"], False
         self.conn: Any = None
         self.signing: signing.SigningState | None = None
@@ -348,7 +285,7 @@ class ArduSubVehicle:
                     log.debug("stack event %s", event.event)
                 self._check_alarms()
                 for name in self.streams.due(stack.t):
-                    self._send_stream(name)
+                    self.telemetry.send(name)
             else:
                 due_at = wall0 + (stack.t + DT - t0) / self.speed
                 time.sleep(min(MAX_SLEEP, max(0.0, due_at - now)))
@@ -360,7 +297,7 @@ class ArduSubVehicle:
 
     def _heartbeat_floor(self) -> None:
         if time.monotonic() - self._last_heartbeat >= 1.0:
-            self._send_stream("HEARTBEAT")
+            self.telemetry.send("HEARTBEAT")
 
     # -- what arrives ---------------------------------------------------------------------------
     def _handle_inbox(self) -> None:
@@ -408,7 +345,7 @@ class ArduSubVehicle:
             result = DENIED
         self.ack(msg.command, result, (msg.get_srcSystem(), msg.get_srcComponent()))
         if msg.command == mav.MAV_CMD_REQUEST_MESSAGE and result == ACCEPTED:
-            self._send_stream(self.streams.ids[int(params[0])])
+            self.telemetry.send(self.streams.ids[int(params[0])])
         if msg.command == mav.MAV_CMD_GET_MESSAGE_INTERVAL and result == ACCEPTED:
             self.send("message_interval", int(params[0]), self.streams.get_us(int(params[0])))
 
@@ -560,106 +497,6 @@ class ArduSubVehicle:
             elif t - self.alarm_sent.get(text, -math.inf) >= ALARM_REPEAT - 1e-9:
                 self.text(mav.MAV_SEVERITY_CRITICAL, text, repeat=text in self.alarm_sent)
                 self.alarm_sent[text] = t
-
-    # -- telemetry ------------------------------------------------------------------------------
-    def _send_stream(self, name: str) -> None:
-        getattr(self, f"_send_{name.lower()}")()
-
-    def _send_heartbeat(self) -> None:
-        self._last_heartbeat = time.monotonic()
-        base = mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mav.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
-        if self.mode not in (MODES["MANUAL"], MODES["ACRO"]):
-            base |= mav.MAV_MODE_FLAG_STABILIZE_ENABLED
-        if self.mode == MODES["GUIDED"]:
-            base |= mav.MAV_MODE_FLAG_GUIDED_ENABLED
-        if self.armed:
-            base |= mav.MAV_MODE_FLAG_SAFETY_ARMED
-        critical = any(self.failsafe.values()) or any(self.alarms().values())
-        status = (mav.MAV_STATE_CRITICAL if critical else
-                  mav.MAV_STATE_ACTIVE if self.armed else mav.MAV_STATE_STANDBY)
-        self.send("heartbeat", mav.MAV_TYPE_SUBMARINE, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, base,
-                  self.mode, status)
-        if self.signing is not None:
-            for name, value in (("SIG_OK", self.signing.accepted_signed),
-                                ("SIG_UNSIGN", self.signing.rejected_unsigned),
-                                ("SIG_BAD", self.signing.rejected_bad)):
-                self.send("named_value_int", self.time_boot_ms, name.encode(), value)
-
-    def _send_sys_status(self) -> None:
-        sensors = (mav.MAV_SYS_STATUS_SENSOR_3D_GYRO | mav.MAV_SYS_STATUS_SENSOR_3D_ACCEL
-                   | mav.MAV_SYS_STATUS_SENSOR_3D_MAG | mav.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
-                   | mav.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS | mav.MAV_SYS_STATUS_AHRS
-                   | mav.MAV_SYS_STATUS_SENSOR_BATTERY)
-        health = sensors
-        if self.alarms()[PRESSURE_TEXT]:
-            health &= ~mav.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
-        volts, amps, remaining = self._battery()
-        self.send("sys_status", sensors, sensors, health, 200, volts, amps, remaining,
-                  0, 0, 0, 0, 0, 0)
-
-    def _battery(self) -> tuple[int, int, int]:
-        """mV, cA, % of a 4S pack that lasts about two hours."""
-        remaining = max(0.0, 100.0 - self.stack.t / 72.0)
-        return int(14000 + 20 * remaining), 500 if self.armed else 50, int(remaining)
-
-    def _send_system_time(self) -> None:
-        self.send("system_time", int(time.time() * 1e6), self.time_boot_ms)
-
-    def _send_attitude(self) -> None:
-        p = self.stack.perception()
-        self.send("attitude", self.time_boot_ms, 0.0, 0.0, wrap(p.psi), 0.0, 0.0, p.r)
-
-    def _world_velocity(self, p: bh.Perception) -> tuple[float, float, float]:
-        c, s = math.cos(p.psi), math.sin(p.psi)
-        return c * p.u - s * p.v, s * p.u + c * p.v, p.w
-
-    def _send_local_position_ned(self) -> None:
-        p = self.stack.perception()
-        self.send("local_position_ned", self.time_boot_ms, p.x, p.y, p.z,
-                  *self._world_velocity(p))
-
-    def _send_global_position_int(self) -> None:
-        p = self.stack.perception()
-        lat = ORIGIN_LAT + math.degrees(p.x / EARTH_RADIUS)
-        lon = ORIGIN_LON + math.degrees(p.y / (EARTH_RADIUS * math.cos(math.radians(ORIGIN_LAT))))
-        vx, vy, vz = (int(round(v * 100)) for v in self._world_velocity(p))
-        hdg = int(round(math.degrees(p.psi) * 100)) % 36000
-        self.send("global_position_int", self.time_boot_ms, int(round(lat * 1e7)),
-                  int(round(lon * 1e7)), int(round(-p.z * 1000)), int(round(-p.z * 1000)),
-                  vx, vy, vz, hdg)
-
-    def _send_scaled_pressure(self) -> None:
-        h = self.stack.housing
-        self.send("scaled_pressure", self.time_boot_ms, float(h["pressure"]) * 1000.0, 0.0,
-                  int(round(float(h["temperature"]) * 100)))
-
-    def _send_scaled_pressure2(self) -> None:
-        depth = max(0.0, self.stack.robot.state.z)  # the pressure sensor reads the true depth
-        hpa = SURFACE_PRESSURE_HPA + WATER_DENSITY * 9.80665 * depth / 100.0
-        self.send("scaled_pressure2", self.time_boot_ms, hpa, 0.0, 1500)
-
-    def _send_distance_sensor(self) -> None:
-        p = self.stack.perception()
-        if p.wall_distance is None or p.wall_heading is None:
-            distance, bearing = SONAR_MAX_CM + 1, 0.0
-        else:
-            distance = int(round(min(max(p.wall_distance * 100, SONAR_MIN_CM), SONAR_MAX_CM)))
-            bearing = -p.wall_heading  # wall_heading is the heading relative to the normal
-        q = [math.cos(bearing / 2), 0.0, 0.0, math.sin(bearing / 2)]
-        self.send("distance_sensor", self.time_boot_ms, SONAR_MIN_CM, SONAR_MAX_CM, distance,
-                  mav.MAV_DISTANCE_SENSOR_ULTRASOUND, 1, mav.MAV_SENSOR_ROTATION_CUSTOM, 255,
-                  0.0, 0.0, q, 0)
-
-    def _send_vfr_hud(self) -> None:
-        p = self.stack.perception()
-        heading = int(round(math.degrees(p.psi))) % 360
-        self.send("vfr_hud", math.hypot(p.u, p.v), math.hypot(p.u, p.v), heading, 0, -p.z, -p.w)
-
-    def _send_battery_status(self) -> None:
-        volts, amps, remaining = self._battery()
-        cells = [volts] + [65535] * 9
-        self.send("battery_status", 0, mav.MAV_BATTERY_FUNCTION_ALL, mav.MAV_BATTERY_TYPE_LIPO,
-                  32767, cells, amps, -1, -1, remaining)
 
     # -- the end --------------------------------------------------------------------------------
     def summary(self) -> list[str]:
