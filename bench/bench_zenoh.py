@@ -166,17 +166,57 @@ def bench(count: int, warmup: int) -> dict[str, object]:
             "dropped": dropped, "target_p99_ms": TARGET_P99_MS, "meets_target": a99 < TARGET_P99_MS}
 
 
+def link_lost_delays(rounds: int) -> dict[str, list[float]]:
+    """Wall seconds from the vehicle's end to Link.lost: killed (SIGKILL: its socket closes)
+    and frozen (SIGSTOP: silent, noticed when the 1 s lease runs out)."""
+    import signal
+
+    delays: dict[str, list[float]] = {"killed": [], "frozen": []}
+    for how in delays:
+        for _ in range(rounds):
+            endpoint = free_endpoint()
+            proc = subprocess.Popen([sys.executable, "-m", "vehicle_adapters.serve", "--zenoh",
+                                     endpoint, "--no-wait"], stdin=subprocess.DEVNULL,
+                                    stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                                    cwd=Path(__file__).resolve().parents[1])
+            try:
+                if "ready" not in (first_line(proc, 20) or ""):
+                    raise RuntimeError("the vehicle did not start")
+                with ZenohVehicle(endpoint, "auv") as vehicle:
+                    if vehicle.lost:
+                        raise RuntimeError(vehicle.lost_reason)
+                    time.sleep(0.5)  # a running link: keep-alives flowing
+                    ended = time.monotonic()
+                    proc.send_signal(signal.SIGKILL if how == "killed" else signal.SIGSTOP)
+                    while not vehicle.lost and time.monotonic() - ended < 10:
+                        vehicle.receive(vehicle.now() + 1.0)
+                    if vehicle.lost_at is None:
+                        raise RuntimeError(f"no Link.lost within 10 s ({how})")
+                    delays[how].append(vehicle.lost_at - ended)
+            finally:
+                proc.send_signal(signal.SIGCONT)
+                proc.kill()
+                proc.wait(timeout=5)
+                if proc.stdout:
+                    proc.stdout.close()
+    return delays
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--echo", metavar="ENDPOINT", help=argparse.SUPPRESS)
     p.add_argument("--count", type=int, default=2000)
     p.add_argument("--warmup", type=int, default=200)
     p.add_argument("--json", action="store_true")
+    p.add_argument("--loss-rounds", type=int, default=5,
+                   help="vehicles killed and frozen to time Link.lost (0: skip)")
     args = p.parse_args(argv)
     if args.echo:
         echo(args.echo)
         return 0
     r = bench(args.count, args.warmup)
+    if args.loss_rounds > 0:
+        r["link_lost_s"] = link_lost_delays(args.loss_rounds)
     if args.json:
         print(json.dumps(r))
     else:
@@ -187,6 +227,9 @@ def main(argv: list[str] | None = None) -> int:
               f"  max {r['bare_max_ms']:.3f} ms")
         print(f"  ratio     median {r['ratio_median']}x  p99 {r['ratio_p99']}x")
         print(f"  target p99 < {TARGET_P99_MS} ms: {'met' if r['meets_target'] else 'NOT met'}")
+        for how, d in dict(r.get("link_lost_s") or {}).items():
+            print(f"Link.lost after the vehicle is {how}: median {statistics.median(d):.3f} s, "
+                  f"max {max(d):.3f} s over {len(d)} (target: within the 1 s lease)")
     return 0 if r["meets_target"] else 1
 
 
