@@ -117,6 +117,36 @@ def bench(count: int, warmup: int, speed: float) -> dict[str, object]:
             "ratio_p99": round(vehicle["p99_ms"] / echo["p99_ms"], 2)}
 
 
+def link_lost_delays(rounds: int) -> list[float]:
+    """Wall seconds from the vehicle's death (SIGKILL) to Link.lost: the heartbeat's silence
+    (the adapter's link timeout is 2 s; the target is within 3 s)."""
+    delays = []
+    for _ in range(rounds):
+        port = free_udp_port()
+        proc = subprocess.Popen([sys.executable, "-m", "mcl.cli.run", "vehicle", "--mavlink",
+                                 f"udpout:127.0.0.1:{port}", "--speed", "10"],
+                                stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                stderr=subprocess.DEVNULL, text=True,
+                                cwd=Path(__file__).resolve().parents[1])
+        try:
+            if "ready" not in (first_line(proc, 20) or ""):
+                raise RuntimeError("the vehicle did not start")
+            with MavlinkVehicle(f"udpin:127.0.0.1:{port}", connect_timeout=10) as vehicle:
+                if vehicle.lost:
+                    raise RuntimeError(vehicle.lost_reason)
+                time.sleep(1.5)  # a running link: heartbeats flowing
+                killed = time.monotonic()
+                proc.kill()
+                while not vehicle.lost and time.monotonic() - killed < 10:
+                    vehicle.receive(vehicle.now() + 1.0)
+                if vehicle.lost_at is None:
+                    raise RuntimeError("no Link.lost within 10 s")
+                delays.append(vehicle.lost_at - killed)
+        finally:
+            stop(proc)
+    return delays
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     p.add_argument("--peer", metavar="URL", help=argparse.SUPPRESS)
@@ -125,11 +155,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--speed", type=float, default=100.0,
                    help="the simulated vehicle's speed (times wall time)")
     p.add_argument("--json", action="store_true")
+    p.add_argument("--loss-rounds", type=int, default=5,
+                   help="vehicles killed to time Link.lost (0: skip)")
     args = p.parse_args(argv)
     if args.peer:
         peer(args.peer)
         return 0
     r = bench(args.count, args.warmup, args.speed)
+    if args.loss_rounds > 0:
+        r["link_lost_s"] = link_lost_delays(args.loss_rounds)
     if args.json:
         print(json.dumps(r))
         return 0
@@ -141,6 +175,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  {label:<13} median {d['median_ms']:.3f} ms  p99 {d['p99_ms']:.3f} ms  "
               f"max {d['max_ms']:.3f} ms  unanswered {d['unanswered']}")
     print(f"  ratio         median {r['ratio_median']}x  p99 {r['ratio_p99']}x")
+    d = r.get("link_lost_s")
+    if isinstance(d, list) and d:
+        print(f"Link.lost after the vehicle is killed: median {statistics.median(d):.3f} s, "
+              f"max {max(d):.3f} s over {len(d)} (target: within 3 s)")
     return 0
 
 
