@@ -488,6 +488,8 @@ def test_a_mission_that_catches_link_lost_reacts_as_written(tmp_path: Any) -> No
     log = tmp_path / "run.jsonl"
     with vehicle_process(endpoint) as vehicle:
         telemetry = Telemetry(endpoint)
+        monitor = mcl("monitor", "--zenoh", endpoint, "--until-end", "--plain", "--timeout",
+                      "60")
         try:
             player = mcl("run", str(mission), "--vehicle", f"zenoh:{endpoint}", "--quiet",
                          "--log", str(log))
@@ -495,10 +497,16 @@ def test_a_mission_that_catches_link_lost_reacts_as_written(tmp_path: Any) -> No
                 wait_for(lambda: "GoTo" in telemetry.last().get("active", []), "GoTo enabled")
                 vehicle.kill()
                 out, err = player.communicate(timeout=60)
+                seen, _ = monitor.communicate(timeout=60)
             finally:
                 stop(player)
         finally:
+            stop(monitor)
             telemetry.close()
+    # the monitor hears the player through the vehicle: it says so and ends, status 1
+    assert monitor.returncode == 1, seen
+    assert seen.splitlines()[-1] == "vehicle lost: the mission's end cannot be known from here"
+    assert "GoTo@3:11" in seen
     assert player.returncode == 0, out + err
     assert "mission link_watch ended OK" in out
     records = [json.loads(line) for line in log.read_text().splitlines()]

@@ -9,8 +9,9 @@ liveliness tokens (``mcl/<v>/alive/**``). On a terminal it redraws one screen in
 times a second (progress, not a log scroll); otherwise (``--plain``, a pipe, a file) it prints
 one line whenever the mission's state changes.
 
-Exit status: 0 on Ctrl-C or when the mission ended OK (``--until-end``), 1 when it ended FAIL,
-2 on invalid options, 3 when ``--timeout`` ran out first.
+Exit status: 0 on Ctrl-C or when the mission ended OK (``--until-end``), 1 when it ended FAIL
+or the vehicle was lost (``--until-end``: the player's word comes through the vehicle), 2 on
+invalid options, 3 when ``--timeout`` ran out first.
 """
 
 from __future__ import annotations
@@ -181,6 +182,10 @@ def watch(view: View, until_end: bool, timeout: float | None, plain: bool,
         if until_end and ended:
             print(f"mission ended {ended.upper()}", file=out, flush=True)
             return EXIT_OK if ended == "ok" else EXIT_FAIL
+        if until_end and view.vehicle_alive is False:  # the player's word comes through it
+            print("vehicle lost: the mission's end cannot be known from here", file=out,
+                  flush=True)
+            return EXIT_FAIL
         if deadline is not None and time.monotonic() >= deadline:
             print(f"mcl monitor: --timeout of {timeout:g} s reached", file=sys.stderr)
             return EXIT_TIMEOUT
@@ -221,7 +226,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help=f"the vehicle's endpoint (default {DEFAULT_ENDPOINT})")
     p.add_argument("--name", default="auv", help="vehicle name in the keys (default auv)")
     p.add_argument("--until-end", action="store_true",
-                   help="exit when the mission ends: status 0 if OK, 1 if FAIL")
+                   help="exit when the mission ends: status 0 if OK, 1 if FAIL or if the "
+                        "vehicle is lost")
     p.add_argument("--timeout", type=float, metavar="SECONDS",
                    help="give up after this many wall seconds (exit 3)")
     p.add_argument("--plain", action="store_true",
