@@ -529,3 +529,21 @@ def test_multicast_scouting_is_off_unless_asked_for() -> None:
         assert multicast(zenoh_config(endpoint, scouting=True, **options)) is True
         assert json.loads(zenoh_config(endpoint, **options).get_json(
             "scouting/gossip/enabled")) is False
+
+
+def test_a_second_player_takes_the_vehicle_and_the_first_gets_link_lost() -> None:
+    endpoint = free_endpoint()
+    with vehicle_process(endpoint, "--no-wait"):
+        with ZenohVehicle(endpoint, "auv") as first:
+            assert not first.lost, first.lost_reason
+            with ZenohVehicle(endpoint, "auv") as second:
+                assert not second.lost, second.lost_reason
+                events = []
+                deadline = time.monotonic() + 10
+                while not first.lost and time.monotonic() < deadline:
+                    events += first.receive(first.now() + 1.0)
+                assert first.lost, "the first player never learnt it had lost the vehicle"
+                events += first.receive(first.now())  # the Link.lost already in its inbox
+                assert f"run {second.run}" in first.lost_reason
+                assert [e.event for e in events][-1:] == ["Link.lost"]
+                assert not second.lost

@@ -244,13 +244,16 @@ class ZenohVehicle(RemoteVehicle):
         self._clocked.set()
 
     def _on_behaviours(self, sample: zenoh.Sample) -> None:
-        if self._taken.is_set():
-            return
+        """The vehicle says whose actions it takes: this run's (taken), or, once taken,
+        another's — a second player took the vehicle, whose events are not ours any more."""
         try:
-            if json.loads(payload_text(sample)).get("run") == self.run:
-                self._taken.set()
+            run = json.loads(payload_text(sample)).get("run")
         except (ValueError, AttributeError):
-            pass
+            return
+        if run == self.run:
+            self._taken.set()
+        elif self._taken.is_set() and run:
+            self._link_lost(f"another player (run {run}) took the vehicle")
 
     def _on_status_query(self, query: zenoh.Query) -> None:
         status = self._status
