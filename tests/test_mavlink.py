@@ -353,6 +353,26 @@ def test_unsigned_player_is_refused_by_a_vehicle_that_requires_signing(tmp_path:
     assert vehicle.acks_received == 0 and vehicle.commands_sent > 0
 
 
+def test_vehicle_taken_over_gives_link_lost(tmp_path: Path) -> None:
+    """A mode change the adapter did not ask for (another ground station, or the vehicle's own
+    failsafe) means the mission no longer drives the vehicle: Link.lost, saying so. Here the
+    SURFACE order is sent around the adapter's own bookkeeping, as another station would."""
+    port = free_udp_port()
+    with vehicle_process(port, tmp_path):
+        with MavlinkVehicle(f"udpin:127.0.0.1:{port}", connect_timeout=10) as vehicle:
+            assert not vehicle.lost, vehicle.lost_reason
+            assert vehicle.command(mavutil.mavlink.MAV_CMD_DO_SET_MODE,
+                                   mavutil.mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                                   MODES["SURFACE"], wait=5) == \
+                mavutil.mavlink.MAV_RESULT_ACCEPTED
+            events = []
+            deadline = time.monotonic() + 10
+            while not events and time.monotonic() < deadline:
+                events = vehicle.receive(vehicle.now() + 1.0)
+    assert [e.event for e in events] == ["Link.lost"], vehicle.lost_reason
+    assert "the vehicle took over: GUIDED -> SURFACE" in vehicle.lost_reason
+
+
 def test_no_vehicle_gives_link_lost_without_hanging(tmp_path: Path) -> None:
     port = free_udp_port()  # nobody sends there
     start = time.monotonic()

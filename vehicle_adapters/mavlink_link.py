@@ -61,7 +61,7 @@ from mcl.errors import Diagnostic, MclError  # noqa: E402
 
 from . import signing  # noqa: E402
 from .aal import ActionMessage, EventMessage  # noqa: E402
-from .ardusub_protocol import GCS_SYSID, MODES, VEHICLE_SYSID, parse_url  # noqa: E402
+from .ardusub_protocol import GCS_SYSID, MODE_NAMES, MODES, VEHICLE_SYSID, parse_url  # noqa: E402
 from .link import MAX_POLL, RemoteVehicle  # noqa: E402
 from .mavlink_behaviours import (  # noqa: E402
     PRIORITY,
@@ -163,6 +163,10 @@ class MavlinkVehicle(RemoteVehicle):
         self.mode: int | None = None
         self.armed = False
         self.vehicle_signs = False  # its HEARTBEATs are signed
+        self._wanted_mode: int | None = None  # the mode the adapter last set
+        self._in_control = False  # the vehicle is in that mode (and armed): a change is a take-over
+        self._taken_over = ""  # why the vehicle took over, for Link.lost (reader thread)
+        self._controlled = threading.Event()  # a HEARTBEAT has shown GUIDED and armed
         self.tel = Telemetry()
         self.behaviours: dict[str, Behaviour] = {
             "GoTo": GoTo("GoTo"), "WallInspection": WallInspection("WallInspection"),
@@ -218,6 +222,8 @@ class MavlinkVehicle(RemoteVehicle):
             msg_id = getattr(mavlink, f"MAVLINK_MSG_ID_{name}")
             self.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz if hz else -1)
         if self.arm:
+            with self._lock:
+                self._wanted_mode = MODES["GUIDED"]
             for what, cmd, params in (
                     ("GUIDED mode", mavlink.MAV_CMD_DO_SET_MODE,
                      (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES["GUIDED"])),
@@ -230,11 +236,18 @@ class MavlinkVehicle(RemoteVehicle):
                     self._link_lost(f"the vehicle refused {what} ({_result_name(result)})"
                                     + hint)
                     return
+            # from its HEARTBEAT on, a change of mode we did not ask for is a take-over
+            if not self._controlled.wait(max(0.1, deadline - time.monotonic())):
+                self._link_lost("the vehicle acknowledged GUIDED and arming but its "
+                                "HEARTBEAT never showed them")
+                return
         self._positioned.wait(max(0.1, deadline - time.monotonic()))
 
     def __exit__(self, *exc: object) -> None:
         if self.conn is None:
             return
+        with self._lock:
+            self._in_control = False  # disarming at the end is no take-over
         try:
             if self._thread is not None and not self._lost and self.arm and self.armed:
                 self.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, wait=0.5)
@@ -285,6 +298,8 @@ class MavlinkVehicle(RemoteVehicle):
             VEHICLE_SYSID, VEHICLE_COMPID, c.command, confirmation, *c.params)
 
     def set_mode(self, mode: str) -> None:
+        with self._lock:  # a mode we ask for is no take-over: watched from its first heartbeat
+            self._wanted_mode, self._in_control = MODES[mode], False
         self.command(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
                      MODES[mode])
 
@@ -385,6 +400,9 @@ class MavlinkVehicle(RemoteVehicle):
             handler = getattr(self, f"_on_{kind.lower()}", None)
             if handler is not None:
                 handler(msg)
+            taken_over, self._taken_over = self._taken_over, ""
+        if taken_over:
+            self._link_lost(taken_over)
 
     # -- message handlers (reader thread, self._lock held) ---------------------------------------
     def _on_heartbeat(self, msg: Any) -> None:
@@ -392,8 +410,21 @@ class MavlinkVehicle(RemoteVehicle):
             return
         self.last_heartbeat = time.monotonic()
         self.vehicle_signs = bool(msg.get_header().incompat_flags & mavlink.MAVLINK_IFLAG_SIGNED)
-        self.mode = msg.custom_mode
-        self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+        mode, armed = msg.custom_mode, bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+        if self._in_control and (mode != self._wanted_mode or (self.arm and not armed)):
+            # the vehicle left the mode we set (its failsafe) or disarmed on its own: the
+            # mission no longer drives it
+            said = next((text for severity, text in reversed(self.texts)
+                         if severity <= mavlink.MAV_SEVERITY_CRITICAL), "")
+            self._taken_over = (f"the vehicle took over: {_mode_name(self._wanted_mode)} -> "
+                                f"{_mode_name(mode)}{'' if armed else ', disarmed'}"
+                                + (f" ({said})" if said else ""))
+            self._in_control = False
+        elif (not self._in_control and self._wanted_mode is not None and not self._lost
+              and mode == self._wanted_mode and (armed or not self.arm)):
+            self._in_control = True
+            self._controlled.set()
+        self.mode, self.armed = mode, armed
         self._seen.set()
 
     def _on_command_ack(self, msg: Any) -> None:
@@ -534,6 +565,10 @@ class MavlinkVehicle(RemoteVehicle):
                 if self.tel.positioned:
                     self._control()
             self._take_events(b)
+
+
+def _mode_name(mode: int | None) -> str:
+    return MODE_NAMES.get(mode, str(mode)) if mode is not None else "?"
 
 
 def _result_name(result: int | None) -> str:
