@@ -283,8 +283,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         from .ardusub import main as ardusub_main  # the ArduSub-like MAVLink vehicle
 
         return ardusub_main(argv)
-    p = argparse.ArgumentParser(prog="mcl vehicle",
-                                description="Serve the simulated Ictineu over Zenoh.")
+    p = argparse.ArgumentParser(
+        prog="mcl vehicle", description="Serve the simulated Ictineu over Zenoh.",
+        epilog="For an ArduSub-like MAVLink vehicle instead: mcl vehicle --mavlink URL "
+               "(see 'mcl vehicle --mavlink URL --help' and docs/MAVLINK.md).")
     p.add_argument("--zenoh", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
                    help=f"endpoint to listen on (default {DEFAULT_ENDPOINT})")
     p.add_argument("--name", default="auv", help="vehicle name in the keys (default auv)")

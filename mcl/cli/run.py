@@ -199,6 +199,13 @@ def _vehicle(args: argparse.Namespace) -> tuple[Any, Any]:
 
     kind, _, where = args.vehicle.partition(":")
     speed = 1.0 if args.realtime else None
+    for options, link in ((("user", "password_file", "tls_ca", "tls_cert", "tls_key",
+                            "scouting"), "zenoh"),
+                          (("signing_key", "require_signing"), "mavlink")):
+        given = [o for o in options if getattr(args, o, None)]
+        if given and kind != link:
+            raise _Invalid(f"--{given[0].replace('_', '-')} is for --vehicle {link}:...; "
+                           f"this run's vehicle is {args.vehicle!r}")
     if kind == "script":
         if not where:
             raise _Invalid("--vehicle script:FILE.toml needs a file")
