@@ -8,6 +8,7 @@ the wall, paper 002 §7); they are constructor arguments so that a user can tune
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from .base import Behaviour, Perception, Response, clamp, wrap
 
@@ -41,6 +42,18 @@ class GoTo(Behaviour):
                              self.yaw_gain * eyaw, 0.3)})
 
 
+def wall_path(value: Any) -> list[tuple[float, float]]:
+    """WallInspection's ``path`` parameter as (y, z) waypoints; ValueError saying what is
+    wrong (the behaviour raises ``failed`` with it)."""
+    try:
+        path = [(float(pt[0]), float(pt[1])) for pt in value or []]
+    except (TypeError, ValueError, IndexError):
+        raise ValueError("the path is not a list of (y, z) points") from None
+    if not path:
+        raise ValueError("empty path")
+    return path
+
+
 class WallInspection(Behaviour):
     """Follow a path of (y, z) waypoints in front of the wall, moving in sway and heave."""
 
@@ -55,15 +68,11 @@ class WallInspection(Behaviour):
 
     def on_initialise(self, t: float) -> None:
         self.index = 0
-        path = self.params.get("path") or []
         try:
-            self.path = [(float(pt[0]), float(pt[1])) for pt in path]
-        except (TypeError, ValueError, IndexError):
+            self.path = wall_path(self.params.get("path"))
+        except ValueError as exc:
             self.path = []
-            self.raise_event("failed", reason="the path is not a list of (y, z) points")
-            return
-        if not self.path:
-            self.raise_event("failed", reason="empty path")
+            self.raise_event("failed", reason=str(exc))
 
     def on_update(self, p: Perception) -> Response:
         if not self.path:

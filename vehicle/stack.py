@@ -12,6 +12,8 @@ adapter's ``on_action`` / ``next_time`` / ``due``), and what ``mcl vehicle`` wil
 
 from __future__ import annotations
 
+import argparse
+
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -53,6 +55,15 @@ def parse_fault(text: str) -> tuple[str, float]:
         raise ValueError(f"{text}: expected FAULT@SECONDS with FAULT one of "
                          f"{', '.join(FAULTS)}, e.g. leak@600")
     return kind, when
+
+
+def fault_argument(text: str) -> tuple[str, float]:
+    """:func:`parse_fault` for argparse (``type=fault_argument``): a bad fault is a usage
+    error, not a traceback."""
+    try:
+        return parse_fault(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 @dataclass

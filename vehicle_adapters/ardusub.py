@@ -95,7 +95,7 @@ from pymavlink import mavutil  # noqa: E402
 
 import behaviours as bh  # noqa: E402
 from behaviours.base import clamp, wrap  # noqa: E402
-from vehicle.stack import DT, IctineuStack, StackConfig, parse_fault  # noqa: E402
+from vehicle.stack import DT, IctineuStack, StackConfig, fault_argument  # noqa: E402
 
 from . import signing  # noqa: E402
 from .aal import ActionMessage  # noqa: E402
@@ -517,13 +517,6 @@ class ArduSubVehicle:
         return lines
 
 
-def _fault(text: str) -> tuple[str, float]:
-    try:
-        return parse_fault(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="mcl vehicle",
@@ -532,7 +525,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT or tcpin:HOST:PORT")
     p.add_argument("--speed", type=float, default=10.0, help="times wall time (default 10)")
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--inject", action="append", default=[], type=_fault,
+    p.add_argument("--inject", action="append", default=[], type=fault_argument,
                    metavar="FAULT@SECONDS")
     p.add_argument("--gcs-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
                    help="ground-station failsafe after this long without its heartbeat "

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from behaviours.base import wrap
+from behaviours.motion import wall_path
 
 SURFACE_DEPTH = 0.2  # m: Surface.surfaced at or above this depth
 LOOKAHEAD = 0.3  # m ahead on a WallInspection leg: the vehicle follows at a survey pace
@@ -96,13 +97,10 @@ class WallInspection(Behaviour):
         self.index = 0
         self.leg_start = (tel.y, tel.z)
         try:
-            self.path = [(float(p[0]), float(p[1])) for p in self.params.get("path") or []]
-        except (TypeError, ValueError, IndexError):
+            self.path = wall_path(self.params.get("path"))
+        except ValueError as exc:
             self.path = []
-            self.raise_event("failed", reason="the path is not a list of (y, z) points")
-            return
-        if not self.path:
-            self.raise_event("failed", reason="empty path")
+            self.raise_event("failed", reason=str(exc))
 
     def update(self, tel: Telemetry) -> dict[str, float]:
         if not self.path:

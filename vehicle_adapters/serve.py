@@ -42,7 +42,7 @@ from typing import Any
 
 import zenoh
 
-from vehicle.stack import DT, IctineuStack, StackConfig, parse_fault
+from vehicle.stack import DT, IctineuStack, StackConfig, fault_argument
 
 from .aal import ActionMessage, InvalidMessage
 from . import zenoh_security
@@ -270,13 +270,6 @@ def serve(endpoint: str = DEFAULT_ENDPOINT, vehicle_name: str = "auv", speed: fl
     return server
 
 
-def _fault(text: str) -> tuple[str, float]:
-    try:
-        return parse_fault(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if any(a == "--mavlink" or a.startswith("--mavlink=") for a in argv):
@@ -292,7 +285,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--name", default="auv", help="vehicle name in the keys (default auv)")
     p.add_argument("--speed", type=float, default=10.0, help="times wall time (default 10)")
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--inject", action="append", default=[], type=_fault,
+    p.add_argument("--inject", action="append", default=[], type=fault_argument,
                    metavar="FAULT@SECONDS")
     p.add_argument("--player-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
                    help="surface after the player has been gone this long (default 3)")
