@@ -63,6 +63,10 @@ class MissionStatus:
         self.publish = publish
         self.calls = set(task_calls(player))
         self.total = len(self.calls)
+        # the places that hold a running task's token (as Player.snapshot reads them), indexed
+        # once: this observer runs at every firing, on the player's path from event to action
+        self._run_places = [(i, _call(p.name)) for i, p in enumerate(player.net.places)
+                            if p.name.endswith(".run")]
         self.since: dict[str, float] = {}  # running task call -> mission time it started
         self.started: set[str] = set()  # task calls that have fired a transition
         self.start: float | None = None
@@ -94,7 +98,8 @@ class MissionStatus:
             self.publish(self.view())
 
     def _update_running(self) -> None:
-        running = set(self.player.snapshot()["running_tasks"])
+        marking = self.player.marking
+        running = {call for index, call in self._run_places if marking[index]}
         for call in list(self.since):
             if call not in running:
                 del self.since[call]
