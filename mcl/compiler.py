@@ -6,7 +6,7 @@ and the MCL source it comes from, so the net that ``mclc`` verifies is the net t
 
 from __future__ import annotations
 
-from petri.net import Net
+from petri.net import LATCH_OFF, LATCH_ON, Net
 
 from . import ast
 from .checker import Checked
@@ -65,8 +65,9 @@ def _latches(ctx: Context) -> None:
         latch = ctx.latches.get(behaviour)
         if latch is None:
             latch = ctx.latches[behaviour] = Latch(
-                behaviour, ctx.place(f"{behaviour}.off"))
+                behaviour, ctx.place(f"{behaviour}.off", role=LATCH_OFF))
         if form.latch:
             origin = ctx.origin(call.span, f"{behaviour} on from {call.name}", "latch")
             latch.sites[id(call)] = ctx.place(
-                f"{behaviour}.on@{call.span.line}:{call.span.col}", (behaviour,), origin)
+                f"{behaviour}.on@{call.span.line}:{call.span.col}", (behaviour,), origin,
+                LATCH_ON)

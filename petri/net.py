@@ -67,6 +67,15 @@ def _short(value: Json) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
+# What a place is for, set by the template that makes it (never read back from its name).
+# A block's interface: BEGIN, ABORT (a token asks the block to stop), OK, FAIL, ABORTED;
+# RUN: a task is running; LATCH_OFF / LATCH_ON: a latched behaviour's state; END_OK /
+# END_FAIL: the mission has ended; INNER: any other place of a template.
+BEGIN, ABORT, OK, FAIL, ABORTED = "begin", "abort", "ok", "fail", "aborted"
+RUN, LATCH_OFF, LATCH_ON, END_OK, END_FAIL, INNER = (
+    "run", "latch-off", "latch-on", "end-ok", "end-fail", "inner")
+
+
 @dataclass(frozen=True)
 class Place:
     name: str
@@ -74,6 +83,7 @@ class Place:
     # place, or a latched behaviour's "on" place).
     behaviours: tuple[str, ...] = ()
     origin: Origin | None = None
+    role: str = INNER
 
 
 @dataclass(frozen=True)
@@ -107,12 +117,16 @@ class Net:
 
     # -- building -------------------------------------------------------------------------
     def add_place(self, name: str, behaviours: tuple[str, ...] = (),
-                  origin: Origin | None = None) -> int:
+                  origin: Origin | None = None, role: str = INNER) -> int:
         if name in self._index:
             raise ValueError(f"duplicate place name {name!r}")
         self._index[name] = len(self.places)
-        self.places.append(Place(name, behaviours, origin))
+        self.places.append(Place(name, behaviours, origin, role))
         return self._index[name]
+
+    def places_with(self, *roles: str) -> list[int]:
+        """Indices of the places that play one of ``roles``."""
+        return [i for i, p in enumerate(self.places) if p.role in roles]
 
     def add_transition(self, name: str, inputs: list[int] | dict[int, int],
                        outputs: list[int] | dict[int, int], **kw: Any) -> int:
@@ -166,7 +180,7 @@ class Net:
                                            "text": o.text, "kind": o.kind}
         return {
             "name": self.name,
-            "places": [{"name": p.name, "behaviours": list(p.behaviours),
+            "places": [{"name": p.name, "behaviours": list(p.behaviours), "role": p.role,
                         "origin": origin(p.origin)} for p in self.places],
             "transitions": [{
                 "name": t.name,

@@ -17,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from petri.net import Action, Net, Origin
+from petri.net import ABORT, ABORTED, BEGIN, FAIL, INNER, OK, Action, Net, Origin
 
 from .. import ast
 from ..errors import Span
@@ -69,12 +69,12 @@ class Context:
         return Origin(span.file, span.line, span.col, text, kind)
 
     def place(self, name: str, behaviours: tuple[str, ...] = (),
-              origin: Origin | None = None) -> int:
-        return self.net.add_place(name, behaviours, origin)
+              origin: Origin | None = None, role: str = INNER) -> int:
+        return self.net.add_place(name, behaviours, origin, role)
 
     def interface(self, name: str, origin: Origin) -> Interface:
-        return Interface(name, *(self.place(f"{name}.{role}", origin=origin)
-                                 for role in ("begin", "abort", "ok", "fail", "aborted")))
+        return Interface(name, *(self.place(f"{name}.{role}", origin=origin, role=role)
+                                 for role in (BEGIN, ABORT, OK, FAIL, ABORTED)))
 
     def transition(self, name: str, inputs: list[int], outputs: list[int], label: str,
                    origin: Origin, actions: tuple[Action, ...] = (), event: str | None = None,

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from petri.net import BEGIN, END_FAIL, END_OK
+
 from .. import ast
 from .common import Context, Interface
 
@@ -25,8 +27,9 @@ def build(ctx: Context, mission: ast.Mission,
           compile_block: Callable[[Context, ast.Block], Interface]) -> Interface:
     name = "MISSION"
     origin = ctx.origin(mission.span, f"MISSION {mission.name or ''}".strip(), "MISSION")
-    begin, ok, fail = (ctx.place(f"{name}.{role}", origin=origin)
-                       for role in ("begin", "ok", "fail"))
+    begin = ctx.place(f"{name}.begin", origin=origin, role=BEGIN)
+    ok = ctx.place(f"{name}.ok", origin=origin, role=END_OK)
+    fail = ctx.place(f"{name}.fail", origin=origin, role=END_FAIL)
     body = compile_block(ctx, mission.body)
     running = ctx.place(f"{name}.running", origin=origin)
     stopping = ctx.place(f"{name}.stopping", origin=origin)

@@ -15,7 +15,7 @@ an abort that reaches it is a late one and its parent absorbs it.
 
 from __future__ import annotations
 
-from petri.net import POINT_FIELDS, Action
+from petri.net import POINT_FIELDS, RUN, Action
 
 from .. import ast, printer
 from ..checker import Resolved
@@ -46,7 +46,7 @@ def build(ctx: Context, call: ast.Call) -> Interface:
                            actions=start)
         return io
 
-    run = ctx.place(f"{name}.run", form.behaviours_on_while_running(), origin)
+    run = ctx.place(f"{name}.run", form.behaviours_on_while_running(), origin, RUN)
     ctx.transition(f"{name}.start", [io.begin], [run], "start", origin, actions=start)
     for event in form.ok:
         ctx.transition(f"{name}.ok.{event}", [run], [io.ok], f"{event} → ok", origin,
