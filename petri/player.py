@@ -159,6 +159,35 @@ class Player:
         self.settle(now)
         return count
 
+    def abort(self, now: float, reason: str) -> None:
+        """Stop the mission from outside (an operator, a limit, a signal, a lost link): the
+        ``Mission.abort`` transition fires, the blocks stop their tasks and switch their
+        latched behaviours off (immediate firings, all at ``now``), and the mission ends fail.
+        Anything still on after that is switched off too. Does nothing once it has ended."""
+        if self.finished:
+            return
+        self._clock = max(self._clock, now)
+        self._emit(self._clock, "note", {"note": f"mission aborted: {reason}"})
+        if self.status == "running":
+            for t in self._waiting.get(MISSION_ABORT, []):
+                if self.enabled(t):
+                    self._fire(t, self._clock, "abort")
+            self._settle_immediate()
+        self.status = "running"  # so that _check_end reports (and switches off what is on)
+        self._check_end(self._clock)
+        if not self.finished:  # the net could not end (a bug, or not started): end it here
+            for b in sorted(self.behaviours_on):
+                self._send(Action("disable", b), "MISSION", self._clock)
+            self.status = "fail"
+            self._emit(self._clock, "status", {"status": "fail"})
+
+    def _settle_immediate(self) -> None:
+        for _ in range(MAX_IMMEDIATE_FIRINGS):
+            t = self._next_immediate()
+            if t is None:
+                return
+            self._fire(t, self._clock, "immediate")
+
     def fire(self, t: int, now: float, cause: str = "replay") -> None:
         """Fire one given transition (it must be enabled): for replaying a firing sequence,
         such as a verifier's counterexample, step by step."""
