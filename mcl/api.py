@@ -40,9 +40,8 @@ def parse_params(assignments: list[str], files: list[str] | None = None
                     "error", "expected 'name = value'", src.span(number, 1),
                     "a parameter file has one 'name = value' per line", "bad-param-file"))
             col = line.index("=") + 2
-            origin = Source(src.name, line)
-            try:
-                out[name.strip()] = (parser.parse_value(value.strip(), src.name), origin)
+            try:  # spans of the value are its place in the file
+                out[name.strip()] = (parser.parse_value(value, src.name, number, col), src)
             except MclError:
                 raise MclError(src.diagnostic(
                     "error", f"not a value: {value.strip()!r}", src.span(number, col),
@@ -55,7 +54,7 @@ def parse_params(assignments: list[str], files: list[str] | None = None
             raise MclError(origin.diagnostic(
                 "error", f"expected --param NAME=VALUE, got {item!r}", origin.span(1, 1),
                 "e.g. --param h=90deg or --param 'initialPos=(0, -8, 2, 90)'", "bad-param"))
-        parsed = parser.parse_value(value.strip(), origin.name)
+        parsed = parser.parse_value(value, origin.name, column=len(name) + 2)
         names = [n for n in _names_in(parsed) if n not in ast.WORDS]
         if names:
             raise MclError(origin.diagnostic(

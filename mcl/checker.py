@@ -3,6 +3,12 @@
 The result, :class:`Checked`, is what the compiler needs: for each call the task form it
 resolves to and its arguments by formal name, and the value of every mission parameter that
 has one. All problems are collected and reported together.
+
+Values are checked twice: their shape against the kind a formal declares (:func:`values.check`),
+then, once every mission parameter that has a value has it (from ``PARAM``, ``--param`` or
+``--params``), the numbers they carry (:func:`values.limits`: finite, durations not negative,
+in the formal's declared range, points with every field the formal needs). A parameter left
+without a value is checked when it gets one (``mcl run`` compiles with every value).
 """
 
 from __future__ import annotations
@@ -12,8 +18,18 @@ from dataclasses import dataclass, field
 from . import ast
 from .errors import Diagnostic, MclError, Source, Span
 from .parser import KEYWORDS, suggest
-from .tasklib import Library, TaskForm
-from .values import check, describe
+from .tasklib import Formal, Library, TaskForm
+from .values import FIELDS, check, describe, limits, to_text
+
+
+@dataclass(frozen=True)
+class _Use:
+    """A value given to a formal (or as a per-call timeout), to check once parameters are
+    known."""
+
+    call: ast.Call
+    formal: Formal | None  # None: the per-call timeout
+    value: ast.Value
 
 
 @dataclass(frozen=True)
@@ -50,6 +66,7 @@ def check_mission(mission: ast.Mission, library: Library, source: Source,
     for call in ast.calls(mission.body):
         c.call(call)
     c.parameters(overrides or {}, require_values)
+    c.limits()
     if any(d.severity == "error" for d in c.diagnostics):
         raise MclError(sorted(c.diagnostics, key=_order))
     checked.diagnostics = sorted(c.diagnostics, key=_order)
@@ -66,6 +83,8 @@ class _Checker:
         self.checked = checked
         self.source = source
         self.diagnostics: list[Diagnostic] = []
+        self.uses: list[_Use] = []
+        self.sources = {source.name: source}  # where the spans of values come from
 
     def error(self, message: str, span: Span, hint: str = "", code: str = "",
               source: Source | None = None) -> None:
@@ -125,8 +144,11 @@ class _Checker:
                     self.error(f"{call.name} ends at once: a timeout means nothing here",
                                arg.span, "remove 'timeout = ...'", code="bad-timeout")
                 timeout = arg.value
-                for p in check(arg.value, "duration", self.checked.param_kinds):
+                problems = check(arg.value, "duration", self.checked.param_kinds)
+                for p in problems:
                     self.error(p.message, p.node.span, code="bad-argument")
+                if not problems:
+                    self.uses.append(_Use(call, None, arg.value))
             elif name is not None:
                 args[name] = arg.value
         for formal in form.formals:
@@ -135,11 +157,58 @@ class _Checker:
             if formal.name not in args:
                 assert formal.default is not None
                 args[formal.name] = formal.default
+                if formal.field_defaults:  # a default point may leave fields to defaults
+                    self.uses.append(_Use(call, formal, formal.default))
                 continue
-            for p in check(args[formal.name], formal.kind, self.checked.param_kinds):
+            problems = check(args[formal.name], formal.kind, self.checked.param_kinds)
+            for p in problems:
                 self.error(f"argument '{formal.name}' of {call.name}: {p.message}",
-                           p.node.span, code="bad-argument")
+                           p.node.span, f"{call.name} takes {formal.text}",
+                           code="bad-argument")
+            if not problems:
+                self.uses.append(_Use(call, formal, args[formal.name]))
         self.checked.calls[id(call)] = Resolved(form, args, timeout)
+
+    # -- the numbers values carry -----------------------------------------------------------
+    def limits(self) -> None:
+        """Check every value given to a formal, as it is once parameters have their values;
+        fill in the fields a point leaves to the defaults its formal declares."""
+        params = self.checked.params
+        reported: set[tuple[str, int, int, str]] = set()
+        for use in self.uses:
+            formal = use.formal
+            kind = formal.kind if formal is not None and formal.kind else "duration"
+            rng = formal.range if formal is not None else None
+            fields = formal.fields if formal is not None else len(FIELDS)
+            what = (f"argument '{formal.name}' of {use.call.name}" if formal is not None
+                    else f"timeout of {use.call.name}")
+            for p in limits(use.value, kind, params, rng, fields):
+                span = p.node.span
+                key = (span.file, span.line, span.col, p.message)
+                if key in reported:
+                    continue
+                reported.add(key)
+                via = f" (the value of parameter '{p.param}')" if p.param else ""
+                self.error(f"{what}: {p.message}{via}", span,
+                           _limit_hint(p.code, formal, use.call), code=p.code,
+                           source=self.sources.get(span.file))
+            if formal is not None and formal.field_defaults:
+                self._fill(use, formal)
+
+    def _fill(self, use: _Use, formal: Formal) -> None:
+        """A point with fewer fields than four gets the defaults of the rest."""
+        value = use.value
+        for _ in range(len(self.checked.params) + 1):
+            if not isinstance(value, ast.Ref) or value.name not in self.checked.params:
+                break
+            value = self.checked.params[value.name]
+        if not isinstance(value, ast.Point) or not formal.fields <= len(value.items) < 4:
+            return
+        defaults = dict(formal.field_defaults)
+        filled = value.items + tuple(defaults[f] for f in FIELDS[len(value.items):])
+        resolved = self.checked.calls.get(id(use.call))
+        if resolved is not None:
+            resolved.args[formal.name] = ast.Point(filled, value.span)
 
     # -- parameters -------------------------------------------------------------------------
     def _cycles(self, declared: dict[str, ast.Param]) -> None:
@@ -173,6 +242,8 @@ class _Checker:
         kinds = self.checked.param_kinds
         params = self.checked.params
         declared: dict[str, ast.Param] = {}
+        for _, origin in overrides.values():
+            self.sources.setdefault(origin.name, origin)
         for p in self.checked.mission.params:
             if p.name in declared:
                 self.error(f"parameter '{p.name}' is declared twice (first at "
@@ -187,7 +258,7 @@ class _Checker:
             if name not in kinds:
                 hint = suggest(name, sorted(kinds)) or (
                     f"the mission's parameters: {', '.join(sorted(kinds)) or 'none'}")
-                self.error(f"unknown parameter '{name}'", origin.span(1, 1), hint,
+                self.error(f"unknown parameter '{name}'", origin.span(value.span.line, 1), hint,
                            code="unknown-param", source=origin)
                 continue
             params[name] = value
@@ -213,7 +284,7 @@ class _Checker:
                     name].value else problem.node.span
                 self.error(f"parameter '{name}' is used as a {kinds[name]} but its value "
                            f"is {describe(value)}: {problem.message}", where,
-                           code="bad-param-value")
+                           code="bad-param-value", source=self.sources.get(where.file))
         uses = _first_uses(self.checked.mission.body)
         for name in sorted(kinds):
             if name not in params:
@@ -224,6 +295,21 @@ class _Checker:
                     self.error(text, span, hint, code="unset-param")
                 else:
                     self.warn(text, span, hint, code="unset-param")
+
+
+def _limit_hint(code: str, formal: Formal | None, call: ast.Call) -> str:
+    if code == "missing-field" and formal is not None:
+        example = "(x, y, z, yaw), e.g. (0 m, 0 m, 2 m, 0 deg)"
+        if formal.field_defaults:
+            given = ", ".join(f"{k} = {to_text(v)}" for k, v in formal.field_defaults)
+            return f"write {example}; the task library gives defaults only for {given}"
+        return (f"write every field {example}; a task library may give the last fields "
+                f"defaults: '{formal.name}: point(yaw = 0 deg)'")
+    if code == "negative-duration":
+        return "a duration is a time from now: 0 s or more"
+    if code == "value-out-of-range" and formal is not None:
+        return f"{call.name} takes {formal.text}"
+    return "numbers must be finite in metres, degrees and seconds: use a smaller value"
 
 
 def _refs(value: ast.Value) -> list[str]:

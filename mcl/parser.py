@@ -121,14 +121,17 @@ def parse(source: Source) -> ast.Mission:
     return _Builder(source).mission(tree)
 
 
-def parse_value(text: str, origin: str = "<command line>") -> ast.Value:
-    """Parse one parameter value as written on the command line or in a parameter file."""
+def parse_value(text: str, origin: str = "<command line>", line: int = 1,
+                column: int = 1) -> ast.Value:
+    """Parse one parameter value as written on the command line or in a parameter file;
+    ``line`` and ``column`` say where it starts in ``origin`` (for the spans of messages)."""
     source = Source(origin, text)
+    padded = "\n" * (line - 1) + " " * (column - 1) + text  # blanks the grammar ignores
     try:
-        tree = _lark().parse(text, start="value")
+        tree = _lark().parse(padded, start="value")
     except UnexpectedInput as exc:
         col = getattr(exc, "column", 1)
-        raise error(source, f"not a value: {text!r}", source.span(1, max(col, 1)),
+        raise error(source, f"not a value: {text!r}", source.span(1, max(col - column + 1, 1)),
                     "values are numbers with an optional unit (1.5 m), lists [a, b], "
                     "points (x, y, z, yaw) or names", code="bad-value") from None
     _check_depth(source, tree)

@@ -4,6 +4,10 @@ The syntax is ``mcl/grammar/tasks.lark``; the shipped libraries are ``mcl/tasks/
 (timers, always loaded) and ``mcl/tasks/ictineu.tasks`` (the paper's nine tasks, the default
 vehicle library). A user adds tasks for a new vehicle by writing a ``.tasks`` file and giving
 it to ``mclc`` / ``mcl`` with ``--tasks FILE``.
+
+What a library declares is checked when it loads: every behaviour a task names, every event,
+every degree of freedom a behaviour drives (against the ``dofs`` declarations, or
+:data:`DEFAULT_DOFS`), every range and default; see docs/TASKS.md.
 """
 
 from __future__ import annotations
@@ -18,10 +22,13 @@ from petri.net import POINT_FIELDS
 
 from . import ast
 from .errors import Diagnostic, MclError, Source, Span, error, read_source
-from .values import KINDS, UNITS, check
+from .values import FIELDS, KINDS, NUMERIC, UNITS, Range, check, limits, to_text
 
 BUILTIN_SOURCES = ("Link", "Mission")  # events the player itself raises
 ACTION_KINDS = ("enable", "disable", "configure")
+# The degrees of freedom of a rigid body: what a behaviour may drive when no loaded library
+# declares its own list with 'dofs NAME, ...;'.
+DEFAULT_DOFS = ("x", "y", "z", "roll", "pitch", "yaw")
 
 
 @dataclass(frozen=True)
@@ -42,6 +49,23 @@ class Formal:
     kind: str | None  # None for a literal word (enable / disable)
     default: ast.Value | None
     span: Span
+    range: Range | None = None  # numeric kinds: the values allowed
+    field_defaults: tuple[tuple[str, ast.Value], ...] = ()  # point: trailing fields' defaults
+
+    @property
+    def fields(self) -> int:
+        """How many fields a point given for this formal must have at least."""
+        return len(FIELDS) - len(self.field_defaults)
+
+    @property
+    def text(self) -> str:
+        if self.kind is None:
+            return self.name
+        kind = self.kind
+        if self.field_defaults:
+            kind += "(" + ", ".join(f"{k} = {to_text(v)}" for k, v in self.field_defaults) + ")"
+        return (f"{self.name}: {kind}" + (f" {self.range.text}" if self.range else "")
+                + (" = …" if self.default is not None else ""))
 
 
 @dataclass(frozen=True)
@@ -74,10 +98,7 @@ class TaskForm:
 
     @property
     def signature(self) -> str:
-        parts = [f.name if f.kind is None else
-                 f"{f.name}: {f.kind}" + (" = …" if f.default is not None else "")
-                 for f in self.formals]
-        return f"{self.name}({', '.join(parts)})"
+        return f"{self.name}({', '.join(f.text for f in self.formals)})"
 
     def behaviours_on_while_running(self) -> tuple[str, ...]:
         return tuple(a.behaviour for a in self.start if a.kind == "enable")
@@ -89,6 +110,7 @@ class Behaviour:
     dofs: tuple[str, ...]
     events: tuple[str, ...]
     span: Span
+    dof_spans: tuple[Span, ...] = field(default=(), compare=False)  # one per dof
 
 
 @dataclass
@@ -96,9 +118,16 @@ class Library:
     behaviours: dict[str, Behaviour] = field(default_factory=dict)
     tasks: dict[str, list[TaskForm]] = field(default_factory=dict)
     files: list[str] = field(default_factory=list)
+    declared_dofs: list[str] = field(default_factory=list)  # from 'dofs' declarations
 
     def dofs(self) -> dict[str, tuple[str, ...]]:
         return {b.name: b.dofs for b in self.behaviours.values()}
+
+    @property
+    def degrees_of_freedom(self) -> tuple[str, ...]:
+        """The degrees of freedom behaviours may drive: those the libraries declare, or
+        :data:`DEFAULT_DOFS` when none does."""
+        return tuple(self.declared_dofs) or DEFAULT_DOFS
 
 
 @lru_cache(maxsize=1)
@@ -131,6 +160,7 @@ def load(paths: list[str] | None = None) -> Library:
 def load_sources(sources: list[Source]) -> Library:
     library = Library()
     pending: list[tuple[Source, TaskForm]] = []
+    drivers: list[tuple[Source, Behaviour]] = []
     for source in sources:
         library.files.append(source.name)
         try:
@@ -146,18 +176,51 @@ def load_sources(sources: list[Source]) -> Library:
         builder = _Builder(source)
         for node in tree.children:
             assert isinstance(node, Tree)
-            if node.data == "behaviour":
+            if node.data == "dofs":
+                library.declared_dofs += [str(t) for t in node.children
+                                          if str(t) not in library.declared_dofs]
+            elif node.data == "behaviour":
                 b = builder.behaviour(node)
                 if b.name in library.behaviours:
                     raise error(source, f"behaviour {b.name} is declared twice", b.span,
                                 code="library-duplicate")
                 library.behaviours[b.name] = b
+                drivers.append((source, b))
             else:
                 pending.append((source, builder.task(node)))
+    _check_dofs(library, drivers)  # 'dofs' may come after the behaviours, or in another file
     for source, form in pending:  # tasks may use behaviours declared in any file
         _validate(source, library, form)
         library.tasks.setdefault(form.name, []).append(form)
     return library
+
+
+def _check_dofs(library: Library, drivers: list[tuple[Source, Behaviour]]) -> None:
+    """Every degree of freedom a behaviour drives must be declared (a misspelt one would
+    silently take the behaviour out of the dof-exclusive proof)."""
+    from .parser import suggest
+
+    declared = library.degrees_of_freedom
+    where = ("the declared ones: " if library.declared_dofs else
+             "no library declares 'dofs NAME, ...;', so they are those of a rigid body: ")
+    problems = []
+    for source, b in drivers:
+        seen: set[str] = set()
+        for dof, span in zip(b.dofs, b.dof_spans):
+            if dof in seen:
+                problems.append(source.diagnostic(
+                    "error", f"behaviour {b.name} drives '{dof}' twice", span,
+                    "name each degree of freedom once", "library-dof"))
+            elif dof not in declared:
+                close = suggest(dof, list(declared))
+                problems.append(source.diagnostic(
+                    "error", f"behaviour {b.name} drives '{dof}', which is not a declared "
+                    "degree of freedom", span,
+                    (close + " " if close else "") + where + ", ".join(declared),
+                    "library-dof"))
+            seen.add(dof)
+    if problems:
+        raise MclError(problems)
 
 
 def _syntax_message(exc: UnexpectedInput) -> str:
@@ -182,10 +245,12 @@ class _Builder:
 
     def behaviour(self, node: Tree[Token]) -> Behaviour:
         name, drives, events = node.children
-        dofs = tuple(str(t) for t in drives.children) if isinstance(drives, Tree) else ()
+        tokens = [t for t in drives.children if isinstance(t, Token)] if isinstance(
+            drives, Tree) else []
         evs = tuple(str(t) for t in events.children) if isinstance(events, Tree) else ()
         assert isinstance(name, Token)
-        return Behaviour(str(name), dofs, evs, self.span(name))
+        return Behaviour(str(name), tuple(str(t) for t in tokens), evs, self.span(name),
+                         tuple(self.span(t) for t in tokens))
 
     def task(self, node: Tree[Token]) -> TaskForm:
         name = node.children[0]
@@ -217,20 +282,93 @@ class _Builder:
             span=self.span(name))
 
     def formal(self, node: Tree[Token]) -> Formal:
-        name, kind, default = node.children
+        name, kind_node, range_node, default = node.children
         assert isinstance(name, Token)
         span = self.span(name)
-        if kind is None:
+        if kind_node is None:
             if str(name) not in ast.WORDS:
                 raise error(self.source, f"parameter '{name}' has no kind",
                             span, f"write '{name}: KIND' with KIND one of {', '.join(KINDS)}",
                             code="library-kind")
             return Formal(str(name), None, None, span)
+        assert isinstance(kind_node, Tree)
+        kind, *defaults = kind_node.children
+        assert isinstance(kind, Token)
         if str(kind) not in KINDS:
+            from .parser import suggest
+
             raise error(self.source, f"unknown kind '{kind}'", self.span(kind),
-                        f"kinds are {', '.join(KINDS)}", code="library-kind")
+                        (suggest(str(kind), list(KINDS)) + " ").lstrip()
+                        + f"kinds are {', '.join(KINDS)}", code="library-kind")
         value = self.value(default) if default is not None else None
-        return Formal(str(name), str(kind), value, span)
+        rng = self.range(str(name), str(kind), range_node) if range_node is not None else None
+        fields = self.field_defaults(str(name), str(kind), kind,
+                                     [d for d in defaults if isinstance(d, Tree)])
+        return Formal(str(name), str(kind), value, span, rng, fields)
+
+    def range(self, name: str, kind: str, node: Tree[Token] | Token) -> Range:
+        """``in [LO, HI]``, ``>= LO`` or ``<= HI``: bounds of the formal's kind."""
+        assert isinstance(node, Tree)
+        if kind not in NUMERIC:
+            raise error(self.source, f"parameter '{name}' is a {kind}: only a number, "
+                        "length, angle or duration has a range", self.span(node),
+                        "remove the range", code="library-range")
+        bounds: list[float] = []
+        for child in node.children:
+            bound = self.value(child)
+            assert isinstance(bound, ast.Number)
+            problems = check(bound, kind, {}) + limits(bound, "list", {})
+            if problems:
+                raise error(self.source, f"range of '{name}': {problems[0].message}",
+                            bound.span, f"a bound is a {kind}" + (
+                                " (plain, or with a unit of the kind)" if kind != "number"
+                                else " without a unit"), code="library-range")
+            bounds.append(bound.value * UNITS[bound.unit][1] if bound.unit else bound.value)
+        texts = [to_text(self.value(c)) for c in node.children]
+        match node.data:
+            case "range_in":
+                if bounds[0] > bounds[1]:
+                    raise error(self.source, f"range of '{name}' is empty: {texts[0]} is "
+                                f"above {texts[1]}", self.span(node),
+                                "write the lower bound first", code="library-range")
+                return Range(bounds[0], bounds[1], f"in [{texts[0]}, {texts[1]}]")
+            case "range_min":
+                return Range(bounds[0], None, f">= {texts[0]}")
+        return Range(None, bounds[0], f"<= {texts[0]}")
+
+    def field_defaults(self, name: str, kind: str, kind_tok: Token,
+                       nodes: list[Tree[Token]]) -> tuple[tuple[str, ast.Value], ...]:
+        """``point(yaw = 0 deg)``: defaults of a point's last fields, in x, y, z, yaw order."""
+        if not nodes:
+            return ()
+        if kind != "point":
+            raise error(self.source, f"only a point has field defaults, not a {kind}",
+                        self.span(kind_tok), f"write '{name}: {kind}'", code="library-kind")
+        out: dict[str, ast.Value] = {}
+        for node in nodes:
+            key, value = node.children
+            assert isinstance(key, Token)
+            if str(key) not in FIELDS:
+                raise error(self.source, f"a point has no field '{key}'", self.span(key),
+                            f"its fields are {', '.join(FIELDS)}", code="library-kind")
+            if str(key) in out:
+                raise error(self.source, f"field '{key}' has two defaults", self.span(key),
+                            code="library-kind")
+            val = self.value(value)
+            field_kind = "angle" if key == "yaw" else "length"
+            problems = check(val, field_kind, {}) + limits(val, field_kind, {})
+            if problems:
+                raise error(self.source, f"default of {name}.{key}: {problems[0].message}",
+                            problems[0].node.span, f"{key} is a {field_kind}",
+                            code="library-kind")
+            out[str(key)] = val
+        first = len(FIELDS) - len(out)
+        if set(out) != set(FIELDS[first:]):
+            raise error(self.source, f"only the last fields of a point can have defaults "
+                        f"(a point is written (x, y, z, yaw) in this order), not "
+                        f"{', '.join(out)}", self.span(nodes[0]),
+                        f"give defaults to {', '.join(FIELDS[first:])}", code="library-kind")
+        return tuple((f, out[f]) for f in FIELDS[first:])
 
     def clause(self, node: Tree[Token]) -> object:
         kids = [c for c in node.children if c is not None]
@@ -305,22 +443,32 @@ def _validate(source: Source, library: Library, form: TaskForm) -> None:
                 fail(f"'{expr.name}' is not a parameter of this task", expr.span,
                      f"parameters: {', '.join(formals) or 'none'}")
 
+    from .parser import suggest
+
+    behaviours = list(library.behaviours)
     for action in form.start + form.stop:
         if action.behaviour not in library.behaviours:
             fail(f"unknown behaviour '{action.behaviour}'", action.span,
-                 "declare it with 'behaviour NAME drives ... events ...;'")
+                 (suggest(action.behaviour, behaviours) + " ").lstrip()
+                 + "declare it with 'behaviour NAME drives ... events ...;'")
         for _, expr in action.bindings:
             check_expr(expr)
+            if isinstance(expr, ast.Number | ast.ListValue | ast.Point):
+                for p in limits(expr, "list", {}):
+                    fail(p.message, p.node.span)
     for event in form.ok + form.fail:
         src, _, name = event.partition(".")
         b = library.behaviours.get(src)
         if src in BUILTIN_SOURCES:
             continue
         if b is None:
-            fail(f"event '{event}' comes from an unknown behaviour", form.span)
+            fail(f"event '{event}' comes from an unknown behaviour", form.span,
+                 (suggest(src, behaviours) + " ").lstrip()
+                 + f"behaviours: {', '.join(behaviours) or 'none'}")
         elif name not in b.events:
             fail(f"behaviour {src} has no event '{name}'", form.span,
-                 f"its events: {', '.join(b.events) or 'none'}")
+                 (suggest(name, list(b.events)) + " ").lstrip()
+                 + f"its events: {', '.join(b.events) or 'none'}")
     if form.timeout is not None:
         expr, _ = form.timeout
         if isinstance(expr, ast.Ref):
@@ -330,6 +478,8 @@ def _validate(source: Source, library: Library, form: TaskForm) -> None:
         elif isinstance(expr, ast.Number):
             if expr.unit is not None and UNITS[expr.unit][0] != "duration":
                 fail("a timeout is a duration (s, min, h)", expr.span)
+            for p in limits(expr, "duration", {}):
+                fail(f"timeout: {p.message}", expr.span)
         else:
             fail("a timeout is a duration or a duration parameter", form.span)
     for latched in (form.latch, form.unlatch):
@@ -340,8 +490,9 @@ def _validate(source: Source, library: Library, form: TaskForm) -> None:
              form.span)
     for f in form.formals:
         if f.default is not None and f.kind is not None:
-            for p in check(f.default, f.kind, {}):
-                fail(f"default of '{f.name}': {p.message}", f.span)
+            wrong = check(f.default, f.kind, {})
+            for p in wrong or limits(f.default, f.kind, {}, f.range, f.fields):
+                fail(f"default of '{f.name}': {p.message}", p.node.span)
     words = tuple((i, f.name) for i, f in enumerate(form.formals) if f.kind is None)
     for other in library.tasks.get(form.name, []):
         other_words = tuple((i, f.name) for i, f in enumerate(other.formals) if f.kind is None)
