@@ -55,6 +55,7 @@ sys.path.insert(0, str(REPO))
 from mcl.api import compile_file
 from petri.net import Net
 from petri.player import Player, Record
+from petri.semantics import Semantics
 
 MCLC = str(Path(sys.executable).parent / "mclc")
 DAM = REPO / "missions" / "dam_inspection.mcl"
@@ -70,33 +71,26 @@ TARGET_MEDIAN_US, TARGET_P99_US = 100.0, 1000.0
 
 # -- the peers ------------------------------------------------------------------------------
 class NaivePlayer:
-    """The player's rules, done the obvious way: after every firing, scan every transition
-    from index 0 for an enabled immediate one. No timers (none fall due in these
-    workloads)."""
+    """The player's rules (petri/semantics.py), done the obvious way: after every firing,
+    rescan every transition for the enabled immediate one of lowest rank. No timers (none
+    fall due in these workloads)."""
 
     name = "naive rescan"
 
     def __init__(self, net: Net, observers: list[Callable[[Record], None]]):
         self.net = net
+        self.rules = Semantics(net)
         self.observers = observers
-        self.marking = [0] * len(net.places)
-        for p, n in net.initial.items():
-            self.marking[p] = n
-        self.waiting: dict[str, list[int]] = {}
-        for i, t in enumerate(net.transitions):
-            if t.event is not None:
-                self.waiting.setdefault(t.event, []).append(i)
+        self.marking = self.rules.initial()
+        self.waiting = self.rules.waiting
         self.fired = 0
 
     def enabled(self, t: int) -> bool:
-        return all(self.marking[p] >= w for p, w in self.net.transitions[t].inputs)
+        return self.rules.enabled(self.marking, t)
 
     def fire(self, t: int, now: float, cause: str) -> None:
         tr = self.net.transitions[t]
-        for p, w in tr.inputs:
-            self.marking[p] -= w
-        for p, w in tr.outputs:
-            self.marking[p] += w
+        self.rules.fire(self.marking, t)
         self.fired += 1
         self.emit(now, "fire", {"transition": tr.name, "cause": cause})
         for a in tr.actions:
@@ -108,14 +102,13 @@ class NaivePlayer:
             observe(record)
 
     def settle(self, now: float) -> None:
-        transitions = self.net.transitions
-        while True:
-            for t, tr in enumerate(transitions):
-                if tr.immediate and self.enabled(t):
-                    self.fire(t, now, "immediate")
-                    break
-            else:
+        rules = self.rules
+        for _ in range(1_000_000):
+            ready = [rules.rank[t] for t in range(len(self.net.transitions))
+                     if rules.immediate[t] and self.enabled(t)]
+            if not ready:
                 return
+            self.fire(min(ready)[1], now, "immediate")
 
     def start(self, now: float) -> None:
         self.settle(now)
@@ -173,10 +166,11 @@ class Pm4pyPlayer(NaivePlayer):
         transitions = self.net.transitions
         while True:
             enabled = self.semantics.enabled_transitions(self.pn, self.pm_marking)
-            ready = [self.index[t] for t in enabled if transitions[self.index[t]].immediate]
+            ready = [self.rules.rank[self.index[t]] for t in enabled
+                     if transitions[self.index[t]].immediate]
             if not ready:
                 return
-            self.fire(min(ready), now, "immediate")
+            self.fire(min(ready)[1], now, "immediate")
 
 
 # -- measuring ------------------------------------------------------------------------------

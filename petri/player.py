@@ -29,10 +29,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .net import Action, Net, resolve
+from .semantics import LINK_LOST, MISSION_ABORT, Semantics, block_of
 
-MAX_IMMEDIATE_FIRINGS = 1_000_000  # per step: a net that loops without events is a bug
-MISSION_ABORT = "Mission.abort"
-LINK_LOST = "Link.lost"
+MAX_IMMEDIATE_FIRINGS = 1_000_000  # per step: a bound on any loop, never reached by a sound net
+
+__all__ = ["LINK_LOST", "MISSION_ABORT", "Player", "Record"]
 
 
 @dataclass(frozen=True)
@@ -57,30 +58,14 @@ class Player:
     fired: int = field(init=False, default=0)
 
     def __post_init__(self) -> None:
-        self.marking = [0] * len(self.net.places)
-        for p, n in self.net.initial.items():
-            self.marking[p] = n
-        self._timed = [i for i, t in enumerate(self.net.transitions) if t.timer is not None]
-        self._waiting: dict[str, list[int]] = {}
-        for i, t in enumerate(self.net.transitions):
-            if t.event is not None:
-                self._waiting.setdefault(t.event, []).append(i)
-        # transitions to re-examine when a place changes
-        self._readers: list[list[int]] = [[] for _ in self.net.places]
-        for i, t in enumerate(self.net.transitions):
-            for p, _ in t.inputs:
-                self._readers[p].append(i)
-        self._immediate = [t.immediate for t in self.net.transitions]
-        aborts = {p for p, place in enumerate(self.net.places) if place.name.endswith(".abort")}
-        # the order in which enabled immediate transitions fire: aborts first, then by index
-        self._rank = [(0 if any(p in aborts for p, _ in t.inputs + t.outputs) else 1, i)
-                      for i, t in enumerate(self.net.transitions)]
-        self._candidates = [self._rank[i] for i, im in enumerate(self._immediate) if im]
+        self.rules = Semantics(self.net)
+        self.marking = self.rules.initial()
+        self._candidates = [self.rules.rank[i] for i, im in enumerate(self.rules.immediate)
+                            if im]
         heapq.heapify(self._candidates)  # a heap of (rank, index)
         self._queued = {i for _, i in self._candidates}
         self._clock = float("-inf")  # the time of the last firing: never goes back
-        ends = [n for n in ("MISSION.ok", "MISSION.fail") if n in self.net._index]
-        self._ends = {self.net.place(n): n.split(".")[1] for n in ends}
+        self._instant: dict[int, float] = {}  # transition -> the instant it last fired at
 
     # -- the three ways a transition fires -------------------------------------------------
     def start(self, now: float) -> None:
@@ -91,25 +76,36 @@ class Player:
         self.settle(now)
 
     def enabled(self, t: int) -> bool:
-        return all(self.marking[p] >= w for p, w in self.net.transitions[t].inputs)
+        return self.rules.enabled(self.marking, t)
 
     def settle(self, now: float, before: bool = False) -> None:
         """Fire immediate transitions and the timers due by ``now`` (``before``: due strictly
-        before it), in time order, until nothing more can fire."""
+        before it), in time order, until nothing more can fire. A transition that would fire
+        twice in one instant means a loop that goes round without time passing (a Zeno
+        cycle, which ``mclc`` refuses): the player aborts the mission instead of spinning."""
         for _ in range(MAX_IMMEDIATE_FIRINGS):
-            t = self._next_immediate()
-            if t is not None:
-                self._fire(t, self._clock, "immediate")
-                continue
-            due = self._next_timer(now - 2e-9 if before else now)
-            if due is None:
+            if self.finished:
                 break
-            t, when = due
-            self._clock = max(self._clock, when)
-            self._fire(t, self._clock, "timer")
+            t = self._next_immediate()
+            cause = "immediate"
+            if t is None:
+                due = self._next_timer(now - 2e-9 if before else now)
+                if due is None:
+                    break
+                t, when = due
+                self._clock = max(self._clock, when)
+                cause = "timer"
+            if self._instant.get(t) == self._clock and self.status == "running":
+                tr = self.net.transitions[t]
+                where = f" at line {tr.origin.line}" if tr.origin else ""
+                self.abort(self._clock, f"a loop goes round without time passing ({tr.name}"
+                                        f"{where} fires twice at {self._clock:g} s)")
+                break
+            self._instant[t] = self._clock
+            self._fire(t, self._clock, cause)
             self._check_end(self._clock)
         else:
-            raise RuntimeError("more than a million firings without an event: the net loops")
+            self.abort(self._clock, "more than a million firings without time passing")
         if not before:
             self._clock = max(self._clock, now)
         self._check_end(self._clock)
@@ -135,29 +131,43 @@ class Player:
         return None if best is None else (best[1], best[0])
 
     def handle_event(self, event: str, now: float, data: dict[str, Any] | None = None) -> int:
-        """Fire what waits for ``event``; returns how many transitions fired."""
-        self.settle(now, before=True)  # timers due before the event fire first; a tie
-        self._clock = max(self._clock, now)  # goes to the event, which was delivered first
+        """Fire what waits for ``event``; returns how many transitions fired.
+
+        Timers due before the event fire first. A timer due at the very instant of the event
+        is a tie: the event goes first if some transition waits for it; if none does yet, the
+        tied timers fire and the event is offered again (a watcher that a timer starts in
+        that instant still gets it: no event is lost to a tie)."""
+        self.settle(now, before=True)
+        self._clock = max(self._clock, now)
         if self.finished:
             self._emit(now, "ignored", {"event": event, "reason": "the mission has ended"})
             return 0
-        waiting = [t for t in self._waiting.get(event, []) if self.enabled(t)]
-        if not waiting and event == LINK_LOST:
-            waiting = [t for t in self._waiting.get(MISSION_ABORT, []) if self.enabled(t)]
+        waiting = self._waiting_for(event)
+        if not waiting:
+            self.settle(now)  # the ties
+            waiting = [] if self.finished else self._waiting_for(event)
+        if not waiting and event == LINK_LOST and not self.finished:
+            waiting = [t for t in self.rules.stops if self.enabled(t)]
             if waiting:
                 self._emit(now, "note", {"note": "Link.lost and no block catches it: the "
                                                  "mission is aborted"})
         if not waiting:
-            self._emit(now, "ignored", {"event": event, "reason": "nobody waits for it"})
+            reason = "the mission has ended" if self.finished else "nobody waits for it"
+            self._emit(now, "ignored", {"event": event, "reason": reason})
             return 0
         self._emit(now, "event", {"event": event, "data": data or {}})
+        self._instant.clear()  # an event starts a new chain of firings in this instant
         count = 0
         for t in waiting:
             if self.enabled(t):
+                self._instant[t] = self._clock
                 self._fire(t, now, event)
                 count += 1
         self.settle(now)
         return count
+
+    def _waiting_for(self, event: str) -> list[int]:
+        return [t for t in self.rules.waiting.get(event, []) if self.enabled(t)]
 
     def abort(self, now: float, reason: str) -> None:
         """Stop the mission from outside (an operator, a limit, a signal, a lost link): the
@@ -169,7 +179,7 @@ class Player:
         self._clock = max(self._clock, now)
         self._emit(self._clock, "note", {"note": f"mission aborted: {reason}"})
         if self.status == "running":
-            for t in self._waiting.get(MISSION_ABORT, []):
+            for t in self.rules.stops:
                 if self.enabled(t):
                     self._fire(t, self._clock, "abort")
             self._settle_immediate()
@@ -177,7 +187,7 @@ class Player:
         self._check_end(self._clock)
         if not self.finished:  # the net could not end (a bug, or not started): end it here
             for b in sorted(self.behaviours_on):
-                self._send(Action("disable", b), "MISSION", self._clock)
+                self._send(Action("disable", b), "MISSION", self._clock, last_resort=True)
             self.status = "fail"
             self._emit(self._clock, "status", {"status": "fail"})
 
@@ -202,17 +212,10 @@ class Player:
         return min(deadlines) if deadlines else None
 
     def _seconds(self, t: int) -> float:
-        timer = self.net.transitions[t].timer
-        if isinstance(timer, str):
-            value = self.params.get(timer)
-            if not isinstance(value, (int, float)):
-                raise ValueError(f"timer parameter {timer!r} has no value")
-            return float(value)
-        assert timer is not None
-        return float(timer)
+        return self.rules.seconds(t, self.params)
 
     def _arm_timers(self, now: float) -> None:
-        for t in self._timed:
+        for t in self.rules.timed:
             if self.enabled(t):
                 self.enabled_since.setdefault(t, now)
             else:
@@ -221,26 +224,24 @@ class Player:
     # -- firing ---------------------------------------------------------------------------
     def _fire(self, t: int, now: float, cause: str) -> None:
         tr = self.net.transitions[t]
-        for p, w in tr.inputs:
-            self.marking[p] -= w
-        for p, w in tr.outputs:
-            self.marking[p] += w
+        self.rules.fire(self.marking, t)
         self.fired += 1
-        task = _task_of(tr.name)
+        task = block_of(tr.name)
         self._emit(now, "fire", {"transition": tr.name, "index": t, "cause": cause,
                                  "label": tr.label, "construct": tr.origin.text if tr.origin
                                  else "", "line": tr.origin.line if tr.origin else None})
         for action in tr.actions:
             self._send(action, task, now)
+        rules = self.rules
         for p, _ in tr.outputs:
-            for r in self._readers[p]:
-                if self._immediate[r] and r not in self._queued:
-                    heapq.heappush(self._candidates, self._rank[r])
+            for r in rules.readers[p]:
+                if rules.immediate[r] and r not in self._queued:
+                    heapq.heappush(self._candidates, rules.rank[r])
                     self._queued.add(r)
         self._rearm_after(tr.inputs + tr.outputs, now)
 
     def _rearm_after(self, arcs: tuple[tuple[int, int], ...], now: float) -> None:
-        touched = {t for p, _ in arcs for t in self._readers[p]
+        touched = {t for p, _ in arcs for t in self.rules.readers[p]
                    if self.net.transitions[t].timer is not None}
         for t in touched:
             if self.enabled(t):
@@ -248,12 +249,21 @@ class Player:
             else:
                 self.enabled_since.pop(t, None)
 
-    def _send(self, action: Action, task: str, now: float) -> None:
+    def _send(self, action: Action, task: str, now: float, last_resort: bool = False) -> None:
+        """Send an action. A ``disable`` that leaves another holder of the behaviour (a
+        watcher shared by several tasks, a latch) is not sent: it stays on until the last
+        holder lets go. ``last_resort``: the player's own switch-off at the end."""
         params = {k: self._resolve(v) for k, v in action.params}
-        if action.kind == "enable":
-            self.behaviours_on[action.behaviour] = task
-        elif action.kind == "disable":
+        if action.kind == "disable":
+            holders = [] if last_resort else self.rules.held(self.marking, action.behaviour)
+            if holders:
+                names = ", ".join(block_of(self.net.places[p].name) for p in holders)
+                self._emit(now, "note", {"note": f"{action.behaviour} stays on: still held "
+                                                 f"by {names}", "task": task})
+                return
             self.behaviours_on.pop(action.behaviour, None)
+        elif action.kind == "enable":
+            self.behaviours_on[action.behaviour] = task
         self._emit(now, "action", {"action": action.kind, "behaviour": action.behaviour,
                                    "params": params, "task": task})
 
@@ -265,17 +275,17 @@ class Player:
     def _check_end(self, now: float) -> None:
         if self.status != "running":
             return
-        for p, status in self._ends.items():
-            if self.marking[p] > 0:
-                self.status = status
-                if self.behaviours_on:  # the last line of defence (MCL.md)
-                    left = sorted(self.behaviours_on)
-                    self._emit(now, "note", {"note": "switching off behaviours left on at the "
-                                                     f"end: {', '.join(left)}"})
-                    for b in left:
-                        self._send(Action("disable", b), "MISSION", now)
-                self._emit(now, "status", {"status": status})
-                return
+        status = self.rules.end_status(self.marking)
+        if status is None:
+            return
+        self.status = status
+        if self.behaviours_on:  # the last line of defence (MCL.md)
+            left = sorted(self.behaviours_on)
+            self._emit(now, "note", {"note": "switching off behaviours left on at the "
+                                             f"end: {', '.join(left)}"})
+            for b in left:
+                self._send(Action("disable", b), "MISSION", now, last_resort=True)
+        self._emit(now, "status", {"status": status})
 
     def _emit(self, now: float, kind: str, data: dict[str, Any]) -> None:
         record = Record(now, kind, data)
@@ -290,11 +300,6 @@ class Player:
     def snapshot(self) -> dict[str, Any]:
         """The current marking, running tasks and enabled behaviours (for monitors)."""
         marked = [self.net.places[p].name for p, n in enumerate(self.marking) if n]
-        running = sorted({_task_of(n) for n in marked if n.endswith(".run")})
-        return {"status": self.status, "marking": marked, "running_tasks": running,
+        return {"status": self.status, "marking": marked,
+                "running_tasks": self.rules.running_tasks(self.marking),
                 "behaviours_on": sorted(self.behaviours_on), "fired": self.fired}
-
-
-def _task_of(name: str) -> str:
-    """'GoTo@12:9.start' -> 'GoTo@12:9' (the block a transition or place belongs to)."""
-    return name.split(".", 1)[0]

@@ -13,6 +13,7 @@ from typing import Any
 
 from .net import Net, resolve
 from .runlog import net_digest
+from .semantics import MISSION_ABORT, Semantics
 
 
 @dataclass
@@ -24,31 +25,86 @@ class Conformance:
     reason: str = ""
 
 
+# The fields each kind of record must have, and their types: a record without them is named
+# by its line instead of upsetting the checks below.
+FIELDS: dict[str, dict[str, type | tuple[type, ...]]] = {
+    "fire": {"transition": str, "index": int, "cause": str},
+    "action": {"action": str, "behaviour": str, "params": dict, "task": str},
+    "event": {"event": str},
+    "ignored": {"event": str},
+    "status": {"status": str},
+    "note": {"note": str},
+}
+
+
+def malformed(records: list[dict[str, Any]]) -> Conformance | None:
+    """The first record that lacks a field its kind needs, or has one of the wrong type."""
+    for r in records[1:]:
+        for name, kind in FIELDS.get(r["kind"], {}).items():
+            value = r.get(name)
+            if not isinstance(value, kind) or isinstance(value, bool):
+                what = kind.__name__ if isinstance(kind, type) else "/".join(
+                    k.__name__ for k in kind)
+                return Conformance(False, len(records), 0, r.get("_line"),
+                                   f"a {r['kind']!r} record needs {name!r} ({what}), "
+                                   f"not {value!r}")
+    return None
+
+
+UNPROMPTED = ("immediate", "timer", "abort", "replay")  # causes that are not vehicle events
+
+
+def unexplained(records: list[dict[str, Any]]) -> Conformance | None:
+    """The first firing said to be caused by an event that no ``event`` record delivered just
+    before it (in the same instant), or the first event record that caused no firing."""
+    delivered: dict[str, Any] | None = None  # the last event record of this instant
+    used = True
+    for r in records[1:]:
+        kind = r["kind"]
+        if kind == "event":
+            if not used and delivered is not None:
+                break
+            delivered, used = r, False
+        elif kind == "fire" and r["cause"] not in UNPROMPTED:
+            if delivered is None or delivered["event"] != r["cause"] or \
+                    delivered["t"] != r["t"]:
+                return Conformance(False, len(records), 0, r.get("_line"),
+                                   f"{r['transition']} fired on {r['cause']}, but no event "
+                                   f"{r['cause']} was received just before it")
+            used = True
+    else:
+        if used or delivered is None:
+            return None
+    assert delivered is not None
+    return Conformance(False, len(records), 0, delivered.get("_line"),
+                       f"event {delivered['event']} was received, but nothing fired on it")
+
+
 def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Conformance:
+    bad_record = malformed(records) or unexplained(records)
+    if bad_record is not None:
+        return bad_record
     header = records[0]
     if header.get("net") != net_digest(net):
         return Conformance(False, len(records), 0, header["_line"],
                            "the log was made with a different net: the mission, its task "
                            "library or its parameters have changed since the run")
-    marking = [0] * len(net.places)
-    for p, n in net.initial.items():
-        marking[p] = n
+    rules = Semantics(net)
+    marking = rules.initial()
     since: dict[int, float] = {}
     pending: list[dict[str, Any]] = []  # actions the last firing must have sent
     firings = 0
-    ends = {net.place(n): n.split(".")[1] for n in ("MISSION.ok", "MISSION.fail")
-            if n in net._index}
+    ends = rules.ends
 
     def enabled(t: int) -> bool:
-        return all(marking[p] >= w for p, w in net.transitions[t].inputs)
+        return rules.enabled(marking, t)
 
     def rearm(now: float) -> None:
-        for t, tr in enumerate(net.transitions):
-            if tr.timer is not None:
-                if enabled(t):
-                    since.setdefault(t, now)
-                else:
-                    since.pop(t, None)
+        for t in rules.timed:
+            if enabled(t):
+                since.setdefault(t, now)
+            else:
+                since.pop(t, None)
 
     def bad(r: dict[str, Any], reason: str) -> Conformance:
         return Conformance(False, len(records), firings, r["_line"], reason)
@@ -90,23 +146,26 @@ def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Co
             if not enabled(t):
                 return bad(r, f"{tr.name} is not enabled here")
             cause = r.get("cause")
-            if tr.event is not None and cause not in (tr.event, "Link.lost"):
+            stop = tr.event == MISSION_ABORT and cause in ("Link.lost", "abort")
+            if tr.event is not None and cause != tr.event and not stop:
                 return bad(r, f"{tr.name} waits for {tr.event}, but the log says {cause}")
             if tr.timer is not None:
-                seconds = float(params.get(tr.timer, 0.0)) if isinstance(tr.timer, str) \
-                    else float(tr.timer)
-                if now + 1e-6 < since.get(t, now) + seconds:
+                seconds = rules.seconds(t, params)
+                due = since.get(t, now) + seconds
+                if now + 1e-6 < due:
                     return bad(r, f"{tr.name} fired before its {seconds:g} s were up")
+                if now > due + 1e-6:  # the player fires a timer at its time, never later
+                    return bad(r, f"{tr.name} fired at {now:g} s, after its time "
+                                  f"({due:g} s): a timer fires when it falls due")
             if tr.immediate and cause != "immediate":
                 return bad(r, f"{tr.name} is immediate but the log says {cause}")
-            for p, w in tr.inputs:
-                marking[p] -= w
-            for p, w in tr.outputs:
-                marking[p] += w
+            rules.fire(marking, t)
             firings += 1
+            # a disable that leaves another holder is not sent (a shared watcher stays on)
             pending = [{"action": a.kind, "behaviour": a.behaviour,
                         "params": {k: resolve(v, params) for k, v in a.params}}
-                       for a in tr.actions]
+                       for a in tr.actions
+                       if a.kind != "disable" or not rules.held(marking, a.behaviour)]
             rearm(now)
         elif kind == "note" and "switching off" in str(r.get("note", "")):
             cleanup = True

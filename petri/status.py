@@ -13,16 +13,19 @@ The status is one small JSON object (``v`` 1)::
 
 ``total`` counts the task calls of the mission (each ``Task@line:col`` once), ``done`` those
 that have started and are no longer running (ended, or never run because their block was
-aborted before them is not counted); a task in a loop counts once. ``t`` is mission time (the player's
-clock since the start) at the last change, ``clock`` the player's clock then (the vehicle's
-clock, when the player follows it): a monitor adds the vehicle clock's progress since.
+aborted before them is not counted); a task in a loop counts once. ``t`` is mission time (0 at
+the mission's start; the player runs on it, petri/runner.py) at the last change, ``clock`` the
+vehicle's clock then (``vehicle_time(t)``; the same as ``t`` without one): a monitor adds the
+vehicle clock's progress since, and shows the vehicle's clock beside mission time.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from .player import Player, Record
+from .semantics import block_of
 
 VERSION = 1
 
@@ -34,8 +37,7 @@ def task_calls(player: Player) -> list[str]:
     return sorted(calls, key=_source_order)
 
 
-def _call(name: str) -> str:
-    return name.split(".", 1)[0]
+_call = block_of
 
 
 def _source_order(call: str) -> tuple[int, int, str]:
@@ -56,17 +58,18 @@ class MissionStatus:
     """
 
     def __init__(self, player: Player, mission: str, run: str = "",
-                 publish: Any = None):
+                 publish: Any = None, vehicle_time: Callable[[float], float] | None = None):
         self.player = player
         self.mission = mission
         self.run = run
         self.publish = publish
+        self.vehicle_time = vehicle_time
         self.calls = set(task_calls(player))
         self.total = len(self.calls)
         # the places that hold a running task's token (as Player.snapshot reads them), indexed
         # once: this observer runs at every firing, on the player's path from event to action
-        self._run_places = [(i, _call(p.name)) for i, p in enumerate(player.net.places)
-                            if p.name.endswith(".run")]
+        self._run_places = [(i, block_of(player.net.places[i].name))
+                            for i in player.rules.run_places]
         self.since: dict[str, float] = {}  # running task call -> mission time it started
         self.started: set[str] = set()  # task calls that have fired a transition
         self.start: float | None = None
@@ -79,7 +82,7 @@ class MissionStatus:
         if self.start is None:
             self.start = record.t
         self.t = record.t - self.start
-        self.clock = record.t
+        self.clock = self.vehicle_time(record.t) if self.vehicle_time else record.t
         d = record.data
         if record.kind == "event":
             self.last_event = {"t": round(self.t, 3), "event": d["event"]}

@@ -21,7 +21,7 @@ from petri.player import Player
 from petri.verify import verify
 from tests.test_structural import LIBRARY, blocks
 
-COUNTS = {"checked": 0, "shared": 0}
+COUNTS = {"checked": 0, "shared": 0, "lassos": 0}
 
 
 def conflict(net_dofs: dict[str, tuple[str, ...]], on: set[str]) -> bool:
@@ -42,6 +42,14 @@ def test_reported_violations_replay_on_the_player(body: ast.Block) -> None:
     net = compile_source(Source("r.mcl", text), library=LIBRARY).net
     verdict = verify(net, max_markings=400_000)
     failed = {r.name: r for r in verdict.results if not r.holds and r.severity == "error"}
+    for result in failed.values():  # every counterexample (and lasso) fires on the player
+        if result.counterexample is None:
+            continue
+        player = Player(net)
+        for step, t in enumerate(result.counterexample + (result.cycle or [])):
+            player.fire(t, float(step))  # raises if the transition is not enabled
+        if result.cycle:
+            COUNTS["lassos"] += 1
     for name in ("dof-exclusive", "behaviours-off-at-end"):
         result = failed.get(name)
         if result is None or result.counterexample is None:
@@ -59,7 +67,7 @@ def test_reported_violations_replay_on_the_player(body: ast.Block) -> None:
         if name == "dof-exclusive":
             assert seen_conflict, f"the player never showed the conflict:\n{text}"
         else:
-            ends = [net.place("MISSION.ok"), net.place("MISSION.fail")]
+            ends = net.places_with("end-ok", "end-fail")
             assert any(player.marking[p] for p in ends), f"not at the end:\n{text}"
             left = set(player.behaviours_on)
             assert left and all(b in result.message for b in left), (left, result.message)

@@ -114,7 +114,7 @@ def test_mclc_json_summary() -> None:
     assert report["status"] == "verified"
     assert report["places"] > 0 and report["transitions"] > 0
     assert {p["property"] for p in report["verification"]["properties"]} >= {
-        "one-safe", "no-deadlock", "final-reachable", "proper-completion",
+        "one-safe", "no-deadlock", "terminates", "proper-completion",
         "behaviours-off-at-end", "dof-exclusive", "no-dead-transitions"}
 
 

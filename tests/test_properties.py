@@ -48,7 +48,10 @@ def examples(n: int) -> int:
 
 GENERIC = tasklib.load_sources([Source("generic.tasks", GENERIC_TASKS)])
 MISSION_FILES = sorted(MISSIONS.glob("*.mcl"))
-STRUCTURAL = ("one-safe", "no-deadlock", "final-reachable", "proper-completion")
+STRUCTURAL = ("one-safe", "no-deadlock", "proper-completion", "stop-safe")
+# a WHILE whose condition cannot fail (e.g. WHILE { Now() } DO { A() }) never ends: then
+# terminates (and no-zeno, for a loop of instant tasks) must fail with a lasso round a WHILE
+LOOPS = ("terminates", "no-zeno")
 
 ICTINEU = S.ictineu_missions(max_depth=3, max_calls=10)
 ANY_MISSION = st.one_of(ICTINEU, S.generic_missions(lamps="free"),
@@ -154,7 +157,14 @@ def test_generic_missions_are_sound(case: tuple[str, ast.Mission]) -> None:
     failed = {name: (results[name].message, verdict.to_json()["properties"])
               for name in wanted if not results[name].holds}
     assert not failed, f"{text}\n{failed}"
-    if lamps == "paired":
+    for name in LOOPS:
+        r = results[name]
+        if not r.holds:
+            assert r.cycle, f"{name} fails without a lasso\n{text}"
+            kinds = {compiled.net.transitions[t].origin.kind for t in r.cycle
+                     if compiled.net.transitions[t].origin is not None}
+            assert "WHILE" in kinds, f"{name}: the lasso does not go round a WHILE\n{text}"
+    if lamps == "paired" and all(results[n].holds for n in LOOPS):
         assert verdict.ok, [(r.name, r.message) for r in verdict.results if not r.holds]
 
 

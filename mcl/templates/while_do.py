@@ -12,14 +12,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from .. import ast
+from .. import ast, printer
 from .common import Context, Interface
 
 
 def build(ctx: Context, node: ast.WhileDo,
           compile_block: Callable[[Context, ast.Block], Interface]) -> Interface:
     name = ctx.prefix("WHILE", node.span)
-    origin = ctx.origin(node.span, "WHILE", "WHILE")
+    # the condition as written, one line, so that a report can say why the loop never ends
+    written = " ".join(printer.block(node.condition, 0).split())
+    origin = ctx.origin(node.span, f"WHILE {written}", "WHILE")
     io = ctx.interface(name, origin)
     cond = compile_block(ctx, node.condition)
     body = compile_block(ctx, node.body)
