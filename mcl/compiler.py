@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from petri.net import LATCH_OFF, LATCH_ON, Net
 
-from . import ast
+from . import ast, latches
 from .checker import Checked
 from .templates import (
     if_then_else,
@@ -28,6 +28,8 @@ def compile_mission(checked: Checked) -> Net:
     net = Net(m.name or "mission", dofs=checked.library.dofs())
     ctx = Context(net, checked)
     _latches(ctx)
+    if ctx.latches:
+        ctx.flow = latch_flow(checked)
     root = mission.build(ctx, m, compile_block)
     net.initial = {root.begin: 1} | {latch.off: 1 for latch in ctx.latches.values()}
     offs = {latch.off: 1 for latch in ctx.latches.values()}
@@ -54,6 +56,12 @@ def compile_block(ctx: Context, block: ast.Block) -> Interface:
     raise TypeError(f"not a block: {block!r}")
 
 
+def latch_flow(checked: Checked) -> latches.Flow:
+    """Which latch states may hold at each call and in each block (mcl/latches.py): each
+    latching call and each abort cleanup gets transitions for those states only."""
+    return latches.analyse(checked)[0]
+
+
 def _latches(ctx: Context) -> None:
     """One state machine per latched behaviour: an "off" place and an "on" place per call
     that switches it on, made before the templates so that any block can switch them off."""
@@ -68,6 +76,6 @@ def _latches(ctx: Context) -> None:
                 behaviour, ctx.place(f"{behaviour}.off", role=LATCH_OFF))
         if form.latch:
             origin = ctx.origin(call.span, f"{behaviour} on from {call.name}", "latch")
-            latch.sites[id(call)] = ctx.place(
+            latch.by_site[latches.site(call)] = latch.sites[id(call)] = ctx.place(
                 f"{behaviour}.on@{call.span.line}:{call.span.col}", (behaviour,), origin,
                 LATCH_ON)

@@ -5,8 +5,8 @@ to :mod:`petri._explore_numpy`, which numbers markings the same way.
 
 Layout: marking ``i`` is row ``cells[i]`` of token counts (uint8, or wider when a place may hold
 more than 255 tokens), padded to whole 64-bit words; ``words`` is the same memory seen as uint64,
-which is how rows are hashed, compared and copied. ``hashes[i]`` is row i's hash, kept to
-rebuild the hash table when it grows. The compiled code is cached in ``__pycache__`` (numba
+which is how rows are hashed, compared and copied (a row's hash is computed again when the
+hash table grows, rather than kept: a word per marking saved). The compiled code is cached in ``__pycache__`` (numba
 ``cache=True``): the first run in a fresh checkout spends several seconds compiling.
 """
 
@@ -14,6 +14,8 @@ rebuild the hash table when it grows. The compiled code is cached in ``__pycache
 # mypy: disable-error-code="no-untyped-def,no-untyped-call,call-arg"
 
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 from llvmlite import ir
@@ -71,8 +73,8 @@ def _prefetch(typingctx, table, row):
 # table itself, so a lookup touches one cache line: table[slot] = [row number + 1, words...].
 # Wider rows would make the table too big; then table[slot, 0] = (high 32 bits of the hash)
 # << 32 | (row number + 1), and a matching fingerprint is confirmed against words[row].
-# In both layouts 0 in column 0 means an empty slot. The table is kept at most half full, so
-# every probe sequence ends at an empty slot.
+# In both layouts 0 in column 0 means an empty slot. The table is kept at most 70% full
+# (_full), so every probe sequence ends at an empty slot.
 
 _INLINE_WORDS = 4
 _LOW32 = np.uint64(0xFFFFFFFF)
@@ -118,20 +120,27 @@ def _store(table, slot, j, h, row):
         table[slot, 0] = ((h >> np.uint64(32)) << np.uint64(32)) | np.uint64(j + 1)
 
 
+@njit(cache=True, inline="always")
+def _full(rows, size):
+    """Whether a table of ``size`` slots is too small for ``rows`` rows (load above 0.7)."""
+    return 10 * rows > 7 * size
+
+
 def _new_table(size: int, n_words: int) -> np.ndarray:
     width = n_words + 1 if n_words <= _INLINE_WORDS else 1
     return np.zeros((size, width), dtype=np.uint64)
 
 
 @njit(cache=True)
-def _rehash(table, words, hashes, n):
+def _rehash(table, words, n):
     """Insert rows 0..n-1 into the empty ``table``."""
     mask = np.uint64(table.shape[0] - 1)
     for i in range(n):
-        slot = hashes[i] & mask
-        while table[slot, 0] != 0:  # at most half full: a free slot exists
+        h = _hash(words[i])
+        slot = h & mask
+        while table[slot, 0] != 0:  # never full: a free slot exists
             slot = (slot + np.uint64(1)) & mask
-        _store(table, slot, i, hashes[i], words[i])
+        _store(table, slot, i, h, words[i])
 
 
 # -- the search ---------------------------------------------------------------------------
@@ -141,19 +150,57 @@ def _rehash(table, words, hashes, n):
 # the hash table most TLB misses, and numba does not reference-count arrays that a loop
 # reassigns (that more than doubled the time per arc).
 
-_RUNNING, _DONE, _MARKING_LIMIT, _TOKEN_LIMIT = -1, 0, 1, 2
+_RUNNING, _DONE, _MARKING_LIMIT, _TOKEN_LIMIT, _GROW_BATCH = -1, 0, 1, 2, 3
 _BATCH = 256  # successors computed before they are looked up (see _expand)
+_SORT_BELOW = 24  # candidate lists shorter than this are insertion-sorted
+
+
+@njit(cache=True, inline="always")
+def _candidates(i, cells, words, per_word, rd_ptr, rd_t, sources, cand):
+    """The transitions that may be enabled at marking ``i`` (those whose first input is
+    marked, and those without inputs) into ``cand``, in increasing order; their number.
+
+    Only the non-zero words of the row are looked into, so the cost is that of scanning the
+    row plus the transitions indexed under its marked places, not of every transition."""
+    nc = 0
+    for w in range(words.shape[1]):
+        if words[i, w] == 0:
+            continue
+        for k in range(w * per_word, (w + 1) * per_word):
+            if cells[i, k] != 0:
+                for r in range(rd_ptr[k], rd_ptr[k + 1]):
+                    cand[nc] = rd_t[r]
+                    nc += 1
+    for r in range(sources.shape[0]):
+        cand[nc] = sources[r]
+        nc += 1
+    if nc < _SORT_BELOW:  # the successors in transition order (the BFS numbering)
+        for a in range(1, nc):
+            x = cand[a]
+            b = a - 1
+            while b >= 0 and cand[b] > x:
+                cand[b + 1] = cand[b]
+                b -= 1
+            cand[b + 1] = x
+    else:
+        cand[:nc] = np.sort(cand[:nc])
+    return nc
 
 
 @njit(cache=True)
-def _expand(i, n, e, cells, words, hashes, parent, parent_t, src, dst, tr, table,
-            batch_cells, batch, batch_h, batch_src, batch_t, in_ptr, in_place, in_w,
-            eff_ptr, eff_place, eff_delta, max_markings, max_tokens):
+def _expand(i, n, e, cells, words, parent, parent_t, keep, src, dst, tr, degree, fired,
+            table, batch_cells, batch, batch_h, batch_src, batch_t, cand, in_ptr, in_place,
+            in_w, eff_ptr, eff_place, eff_delta, rd_ptr, rd_t, sources, max_markings,
+            max_tokens):
     """Expand markings i, i+1, ... while every successor surely fits in the arrays.
 
     Returns (i, n, e, status, at, t): the next marking to expand, the numbers of markings and
-    arcs, and _RUNNING (grow the arrays and call again) or a final status; on a limit, the
+    arcs, and _RUNNING (grow the arrays and call again), _GROW_BATCH (marking i has ``at``
+    candidate successors: grow the batch to hold them) or a final status; on a limit, the
     markings before ``at`` have all their arcs recorded (see explore_rows).
+
+    With ``keep`` the arcs are recorded in src, dst, tr; without, only each marking's number
+    of successors (``degree``) and each transition's number of firings (``fired``).
 
     Markings are expanded a batch at a time: first the successors of a few markings are
     computed and the hash-table slot of each is prefetched, so that the processor fetches
@@ -161,18 +208,24 @@ def _expand(i, n, e, cells, words, hashes, parent, parent_t, src, dst, tr, table
     are looked up and inserted in order, which keeps the BFS numbering.
     """
     n_words = words.shape[1]
-    n_trans = in_ptr.shape[0] - 1
+    per_word = cells.shape[1] // n_words
     mask = np.uint64(table.shape[0] - 1)
-    capacity = batch.shape[0]  # at least n_trans
+    capacity = batch.shape[0]
     while i < n:
-        if (n + capacity > words.shape[0] or e + capacity > src.shape[0]
-                or 2 * (n + capacity) > table.shape[0]):
+        if (n + capacity > words.shape[0] or (keep and e + capacity > src.shape[0])
+                or _full(n + capacity, table.shape[0])):
             return i, n, e, _RUNNING, -1, -1
         # 1. successors of markings i, i+1, ... (whole markings only) into the batch
         b = 0
         over_at, over_t = -1, -1  # a firing that would exceed max_tokens
-        while i < n and b + n_trans <= capacity and over_at < 0:
-            for t in range(n_trans):
+        while i < n and over_at < 0:
+            nc = _candidates(i, cells, words, per_word, rd_ptr, rd_t, sources, cand)
+            if b + nc > capacity:
+                if b == 0:
+                    return i, n, e, _GROW_BATCH, nc, -1
+                break
+            for c in range(nc):
+                t = cand[c]
                 enabled = True
                 for a in range(in_ptr[t], in_ptr[t + 1]):
                     if cells[i, in_place[a]] < in_w[a]:
@@ -207,14 +260,19 @@ def _expand(i, n, e, cells, words, hashes, parent, parent_t, src, dst, tr, table
                 j = n
                 for k in range(n_words):
                     words[j, k] = row[k]
-                hashes[j] = h
                 parent[j] = batch_src[s]
                 parent_t[j] = batch_t[s]
+                if not keep:
+                    degree[j] = 0
                 _store(table, slot, j, h, row)
                 n += 1
-            src[e] = batch_src[s]
-            dst[e] = j
-            tr[e] = batch_t[s]
+            if keep:
+                src[e] = batch_src[s]
+                dst[e] = j
+                tr[e] = batch_t[s]
+            else:
+                degree[batch_src[s]] += 1
+                fired[batch_t[s]] += 1
             e += 1
         if over_at >= 0:  # the firings before it are recorded; stop here
             return i, n, e, _TOKEN_LIMIT, over_at, over_t
@@ -222,12 +280,12 @@ def _expand(i, n, e, cells, words, hashes, parent, parent_t, src, dst, tr, table
 
 
 @njit(cache=True)
-def _start(table, cells, words, hashes, parent, parent_t, m0):
+def _start(table, cells, words, parent, parent_t, m0):
     cells[0] = m0
-    hashes[0] = _hash(words[0])
+    h = _hash(words[0])
     parent[0] = -1
     parent_t[0] = -1
-    _store(table, hashes[0] & np.uint64(table.shape[0] - 1), 0, hashes[0], words[0])
+    _store(table, h & np.uint64(table.shape[0] - 1), 0, h, words[0])
 
 
 def _grown(a: np.ndarray, n: int) -> np.ndarray:
@@ -237,45 +295,68 @@ def _grown(a: np.ndarray, n: int) -> np.ndarray:
     return b
 
 
-def explore_rows(m0: np.ndarray, in_ptr: np.ndarray, in_place: np.ndarray, in_w: np.ndarray,
-                 eff_ptr: np.ndarray, eff_place: np.ndarray, eff_delta: np.ndarray,
-                 max_markings: int, max_tokens: int) -> tuple:  # type: ignore[type-arg]
-    """BFS from the padded row ``m0``.
+def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
+                 ) -> tuple:  # type: ignore[type-arg]
+    """BFS from the padded row ``net.row`` of a :class:`petri.reachability._Compiled` net.
 
-    Returns (cells, parent, parent_t, src, dst, tr, status, at, t), where ``status`` is 0
-    (complete), 1 (marking limit: a firing from row ``at`` would make one marking too many)
-    or 2 (token limit: firing ``t`` from row ``at`` would exceed ``max_tokens``). Either way
-    the rows before ``at`` have all their arcs recorded. The arc arrays are views of larger buffers.
+    Returns (cells, parent, parent_t, src, dst, tr, status, at, t, degree, fired), where
+    ``status`` is 0 (complete), 1 (marking limit: a firing from row ``at`` would make one
+    marking too many) or 2 (token limit: firing ``t`` from row ``at`` would exceed
+    ``max_tokens``). Either way the rows before ``at`` have all their arcs recorded. With
+    ``arcs`` the arcs are src, dst, tr (views of larger buffers) and degree, fired are None;
+    without, src, dst, tr are empty and degree (successors of each marking) and fired
+    (firings of each transition) count them.
     """
-    n_trans = len(in_ptr) - 1
-    capacity = max(_BATCH, n_trans)
+    m0 = net.row
+    n_trans = len(net.in_ptr) - 1
+    capacity = _BATCH
     cap = 1024 + 2 * capacity
     cells = np.empty((cap, len(m0)), dtype=m0.dtype)
-    hashes = np.empty(cap, dtype=np.uint64)
-    parent = np.empty(cap, dtype=np.int64)
+    parent = np.empty(cap, dtype=np.int32)
     parent_t = np.empty(cap, dtype=np.int32)
-    src, dst, tr = (np.empty(4 * cap, dtype=np.int32) for _ in range(3))
+    src, dst, tr = (np.empty(4 * cap if arcs else 0, dtype=np.int32) for _ in range(3))
+    degree = np.zeros(0 if arcs else cap, dtype=np.int32)
+    fired = np.zeros(0 if arcs else max(1, n_trans), dtype=np.int64)
     n_words = cells.view(np.uint64).shape[1]
     table = _new_table(1 << (4 * cap - 1).bit_length(), n_words)  # a power of two
     batch_cells = np.empty((capacity, len(m0)), dtype=m0.dtype)
     batch_h = np.empty(capacity, dtype=np.uint64)
     batch_src, batch_t = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
-    _start(table, cells, cells.view(np.uint64), hashes, parent, parent_t, m0)
+    cand = np.empty(max(1, n_trans), dtype=np.int64)  # a marking's candidate transitions
+    _start(table, cells, cells.view(np.uint64), parent, parent_t, m0)
+    if not arcs:
+        degree[0] = 0
 
     i, n, e, status, at, t = 0, 1, 0, _RUNNING, -1, -1
-    for _ in range(200):  # each round doubles an array; 2**200 is beyond any memory
+    for _ in range(400):  # each round doubles an array; 2**200 is beyond any memory
         i, n, e, status, at, t = _expand(
-            i, n, e, cells, cells.view(np.uint64), hashes, parent, parent_t, src, dst, tr,
-            table, batch_cells, batch_cells.view(np.uint64), batch_h, batch_src, batch_t,
-            in_ptr, in_place, in_w, eff_ptr, eff_place, eff_delta, max_markings, max_tokens)
+            i, n, e, cells, cells.view(np.uint64), parent, parent_t, arcs, src, dst, tr,
+            degree, fired, table, batch_cells, batch_cells.view(np.uint64), batch_h,
+            batch_src, batch_t, cand, net.in_ptr, net.in_place, net.in_w, net.eff_ptr,
+            net.eff_place, net.eff_delta, net.rd_ptr, net.rd_t, net.sources, max_markings,
+            max_tokens)
+        if status == _GROW_BATCH:  # marking i has more candidates than the batch holds
+            capacity = max(2 * capacity, at)
+            batch_cells = np.empty((capacity, len(m0)), dtype=m0.dtype)
+            batch_h = np.empty(capacity, dtype=np.uint64)
+            batch_src = np.empty(capacity, dtype=np.int64)
+            batch_t = np.empty(capacity, dtype=np.int64)
+            status = _RUNNING
+            continue
         if status != _RUNNING:
             break
         if n + capacity > len(cells):
-            cells, hashes = _grown(cells, n), _grown(hashes, n)
+            cells = _grown(cells, n)
             parent, parent_t = _grown(parent, n), _grown(parent_t, n)
-        if e + capacity > len(src):
+            if not arcs:
+                degree = _grown(degree, n)
+        if arcs and e + capacity > len(src):
             src, dst, tr = _grown(src, e), _grown(dst, e), _grown(tr, e)
-        if 2 * (n + capacity) > len(table):
-            table = _new_table(2 * len(table), n_words)
-            _rehash(table, cells.view(np.uint64), hashes, n)
-    return (cells[:n], parent[:n], parent_t[:n], src[:e], dst[:e], tr[:e], status, at, t)
+        if _full(n + capacity, len(table)):
+            del table  # the old table goes before the new one comes
+            size = 1 << (10 * (n + capacity) // 7).bit_length()
+            table = _new_table(size, n_words)
+            _rehash(table, cells.view(np.uint64), n)
+    del table
+    return (cells[:n], parent[:n], parent_t[:n], src[:e], dst[:e], tr[:e], status, at, t,
+            None if arcs else degree[:n], None if arcs else fired[:n_trans])

@@ -1,7 +1,9 @@
 """The breadth-first search of :mod:`petri.reachability` in plain numpy (no numba).
 
-It expands one BFS level at a time with array operations: for every transition, the enabled
-rows of the level and their successors; then candidates are put in (marking, transition) order
+It expands one BFS level at a time with array operations: the marked places of the level's rows
+give the candidate transitions (those indexed under a marked place, see
+:func:`petri.reachability.compile_net`), their input arcs are checked, and the enabled ones fire
+through their sparse effects; then successors are put in (marking, transition) order
 and looked up among the known markings, kept as a sorted array of row keys (each row seen as one
 fixed-width ``void`` value, compared bytewise). New markings are numbered in order of first
 discovery, so the numbering, arcs and parents are exactly those of the numba kernel.
@@ -25,23 +27,14 @@ def _keys(cells: Array) -> Array:
     return rows.view(np.dtype((np.void, rows.shape[1] * rows.itemsize))).ravel()
 
 
-def explore_rows(m0: Array, in_ptr: Array, in_place: Array, in_w: Array, eff_ptr: Array,
-                 eff_place: Array, eff_delta: Array, max_markings: int,
-                 max_tokens: int) -> tuple[Array, Array, Array, Array, Array, Array, int, int,
-                                           int]:
+def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
+                 ) -> tuple[Any, ...]:
     """Same contract as :func:`petri._explore_numba.explore_rows`."""
-    n_trans = len(in_ptr) - 1
-    width = len(m0)
-    pre = np.zeros((n_trans, width), dtype=np.int64)
-    effect = np.zeros((n_trans, width), dtype=np.int64)
-    for t in range(n_trans):
-        pre[t, in_place[in_ptr[t]:in_ptr[t + 1]]] = in_w[in_ptr[t]:in_ptr[t + 1]]
-        effect[t, eff_place[eff_ptr[t]:eff_ptr[t + 1]]] = eff_delta[eff_ptr[t]:eff_ptr[t + 1]]
-
+    m0 = net.row
     levels = [m0[None, :].copy()]
     parents: list[Array] = [np.array([-1], dtype=np.int64)]
     parent_ts: list[Array] = [np.array([-1], dtype=np.int32)]
-    arcs: list[tuple[Array, Array, Array]] = []
+    found: list[tuple[Array, Array, Array]] = []
     known = _keys(levels[0])  # sorted keys of all numbered markings ...
     known_id = np.zeros(1, dtype=np.int64)  # ... and their numbers
     n, lo = 1, 0
@@ -50,7 +43,7 @@ def explore_rows(m0: Array, in_ptr: Array, in_place: Array, in_w: Array, eff_ptr
         frontier = levels[-1].astype(np.int64)
         if not len(frontier):
             break
-        src, trans, succ = _successors(frontier, pre, effect, lo)
+        src, trans, succ = _successors(frontier, net, lo)
         cut = len(src)
         over = np.flatnonzero((succ > max_tokens).any(axis=1))
         if over.size:
@@ -72,7 +65,7 @@ def explore_rows(m0: Array, in_ptr: Array, in_place: Array, in_w: Array, eff_ptr
             src, trans, dst, rows, new = src[:keep], trans[:keep], dst[:keep], rows[:keep], \
                 new[:keep]
             order = order[: max_markings - n]
-        arcs.append((src, dst, trans))
+        found.append((src, dst, trans))
         new_rows = np.flatnonzero(new)[first[order]]
         levels.append(rows[new_rows])
         parents.append(src[new_rows])
@@ -82,29 +75,56 @@ def explore_rows(m0: Array, in_ptr: Array, in_place: Array, in_w: Array, eff_ptr
         if status != _DONE:
             break
     cells = np.concatenate(levels)
-    src = np.concatenate([a[0] for a in arcs]).astype(np.int32) if arcs else _none()
-    dst = np.concatenate([a[1] for a in arcs]).astype(np.int32) if arcs else _none()
-    trans = np.concatenate([a[2] for a in arcs]).astype(np.int32) if arcs else _none()
+    src = np.concatenate([a[0] for a in found]).astype(np.int32) if found else _none()
+    dst = np.concatenate([a[1] for a in found]).astype(np.int32) if found else _none()
+    trans = np.concatenate([a[2] for a in found]).astype(np.int32) if found else _none()
+    degree = fired = None
+    if not arcs:  # the same counts the numba kernel keeps instead of the arcs
+        degree = np.bincount(src, minlength=len(cells)).astype(np.int32)
+        fired = np.bincount(trans, minlength=len(net.in_ptr) - 1).astype(np.int64)
+        src, dst, trans = _none(), _none(), _none()
     return (cells, np.concatenate(parents), np.concatenate(parent_ts), src, dst, trans,
-            status, at, stop_t)
+            status, at, stop_t, degree, fired)
 
 
 def _none() -> Array:
     return np.zeros(0, dtype=np.int32)
 
 
-def _successors(frontier: Array, pre: Array, effect: Array,
-                lo: int) -> tuple[Array, Array, Array]:
+def _ranges(starts: Array, counts: Array) -> Array:
+    """The concatenation of arange(s, s + c) for each (s, c)."""
+    total = int(counts.sum())
+    if not total:
+        return np.zeros(0, dtype=np.int64)
+    ends = np.cumsum(counts)
+    shift = np.repeat(starts - (ends - counts), counts)
+    return shift + np.arange(total, dtype=np.int64)
+
+
+def _successors(frontier: Array, net: Any, lo: int) -> tuple[Array, Array, Array]:
     """All firings from the frontier rows (numbered from ``lo``), in (marking, t) order."""
-    srcs, ts, succs = [], [], []
-    for t in range(len(pre)):
-        enabled = np.flatnonzero((frontier >= pre[t]).all(axis=1))
-        srcs.append(enabled + lo)
-        ts.append(np.full(len(enabled), t, dtype=np.int64))
-        succs.append(frontier[enabled] + effect[t])
-    src, trans = np.concatenate(srcs), np.concatenate(ts)
-    order = np.lexsort((trans, src))
-    return src[order], trans[order], np.concatenate(succs)[order]
+    rows, places = np.nonzero(frontier)
+    counts = net.rd_ptr[places + 1] - net.rd_ptr[places]
+    cand_row = np.repeat(rows, counts)
+    cand_t = net.rd_t[_ranges(net.rd_ptr[places], counts)]
+    # every candidate has an input (its first one is marked): check all of them
+    n_in = net.in_ptr[cand_t + 1] - net.in_ptr[cand_t]
+    arcs = _ranges(net.in_ptr[cand_t], n_in)
+    ok = frontier[np.repeat(cand_row, n_in), net.in_place[arcs]] >= net.in_w[arcs]
+    if len(cand_t):
+        enabled = np.logical_and.reduceat(ok, np.cumsum(n_in) - n_in)
+        cand_row, cand_t = cand_row[enabled], cand_t[enabled]
+    if len(net.sources):  # transitions without inputs fire everywhere
+        cand_row = np.concatenate([cand_row, np.repeat(np.arange(len(frontier)),
+                                                       len(net.sources))])
+        cand_t = np.concatenate([cand_t, np.tile(net.sources, len(frontier))])
+    order = np.lexsort((cand_t, cand_row))
+    cand_row, cand_t = cand_row[order], cand_t[order]
+    succ = frontier[cand_row]
+    n_eff = net.eff_ptr[cand_t + 1] - net.eff_ptr[cand_t]
+    eff = _ranges(net.eff_ptr[cand_t], n_eff)
+    succ[np.repeat(np.arange(len(cand_t)), n_eff), net.eff_place[eff]] += net.eff_delta[eff]
+    return cand_row + lo, cand_t.astype(np.int64), succ
 
 
 def _find(known: Array, known_id: Array, keys: Array) -> Array:

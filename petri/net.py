@@ -10,10 +10,11 @@ MCL source they come from. Nets read from PNML carry none of that and are verifi
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-import numpy.typing as npt
+if TYPE_CHECKING:  # numpy is loaded only by the code that needs arrays (startup time)
+    import numpy as np
+    import numpy.typing as npt
 
 Json = Any
 
@@ -138,27 +139,22 @@ class Net:
         return self._index[name]
 
     # -- views ----------------------------------------------------------------------------
-    def pre(self) -> npt.NDArray[np.int64]:
-        """Input arc weights, shape (transitions, places)."""
-        m = np.zeros((len(self.transitions), len(self.places)), dtype=np.int64)
-        for t, tr in enumerate(self.transitions):
-            for p, w in tr.inputs:
-                m[t, p] += w
-        return m
-
-    def post(self) -> npt.NDArray[np.int64]:
-        """Output arc weights, shape (transitions, places)."""
-        m = np.zeros((len(self.transitions), len(self.places)), dtype=np.int64)
-        for t, tr in enumerate(self.transitions):
-            for p, w in tr.outputs:
-                m[t, p] += w
-        return m
-
-    def incidence(self) -> npt.NDArray[np.int64]:
-        """C = post - pre, shape (places, transitions), so that M' = M + C @ firing-count."""
-        return (self.post() - self.pre()).T
+    # Arcs are kept sparse, as (place, weight) lists on each transition: a mission net has a
+    # few arcs per transition, so any place x transition matrix would be almost all zeros
+    # (and, for a survey of thousands of waypoints, larger than memory).
+    def effect(self, t: int) -> dict[int, int]:
+        """The non-zero change firing transition ``t`` makes, {place: post - pre}."""
+        out: dict[int, int] = {}
+        tr = self.transitions[t]
+        for p, w in tr.inputs:
+            out[p] = out.get(p, 0) - w
+        for p, w in tr.outputs:
+            out[p] = out.get(p, 0) + w
+        return {p: d for p, d in out.items() if d}
 
     def initial_vector(self) -> npt.NDArray[np.int64]:
+        import numpy as np
+
         v = np.zeros(len(self.places), dtype=np.int64)
         for p, n in self.initial.items():
             v[p] = n
@@ -197,7 +193,25 @@ class Net:
         }
 
 
+def triggers(net: Net) -> list[int]:
+    """For each transition, the input place an explorer looks it up by (-1: no input): the
+    input read by the fewest transitions, so that a marked place that many transitions read
+    (a latch's "off" place) does not make every marking examine all of them."""
+    readers = [0] * len(net.places)
+    for tr in net.transitions:
+        for p, _ in tr.inputs:
+            readers[p] += 1
+    return [min((readers[p], p) for p, _ in tr.inputs)[1] if tr.inputs else -1
+            for tr in net.transitions]
+
+
 def _arcs(spec: list[int] | dict[int, int]) -> tuple[tuple[int, int], ...]:
+    if isinstance(spec, list):  # the usual case, made fast: one or two distinct places
+        if len(spec) == 1:
+            return ((spec[0], 1),)
+        if len(spec) == 2 and spec[0] != spec[1]:
+            a, b = spec
+            return ((a, 1), (b, 1)) if a < b else ((b, 1), (a, 1))
     if isinstance(spec, dict):
         return tuple(sorted((p, w) for p, w in spec.items() if w))
     counts: dict[int, int] = {}

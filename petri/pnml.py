@@ -327,8 +327,14 @@ def _count(path: str, where: _Node | _Arc, text: str | None, what: str, minimum:
         value = -1
     if value < minimum:
         raise PnmlError(f"{what} of {where.id!r} must be an integer >= {minimum}, "
-                        f"not {text!r}", path, where.line, where.col)
+                        f"not {text[:40]!r}", path, where.line, where.col)
+    if value > MAX_COUNT:
+        raise PnmlError(f"{what} of {where.id!r} must be at most {MAX_COUNT}, not "
+                        f"{text[:40]!r}", path, where.line, where.col)
     return value
+
+
+MAX_COUNT = 2**31 - 1  # tokens in a place, weight of an arc: more is no net one can verify
 
 
 # -- writing ------------------------------------------------------------------------------

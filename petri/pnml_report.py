@@ -56,7 +56,7 @@ def analyse(net: Net, method: str = "auto", max_markings: int = 20_000_000,
     if method == "symbolic":
         report = symbolic_report(net, symbolic.explore(net, time_limit=symbolic_seconds))
     elif method == "explicit":
-        report = explicit_report(net, rg.explore(net, max_markings, max_tokens))
+        report = explicit_report(net, rg.explore(net, max_markings, max_tokens, arcs=False))
     else:
         report = _auto(net, max_markings, max_tokens, probe, symbolic_seconds)
     report["seconds"] = round(time.perf_counter() - start, 3)
@@ -66,7 +66,7 @@ def analyse(net: Net, method: str = "auto", max_markings: int = 20_000_000,
 def _auto(net: Net, max_markings: int, max_tokens: int, probe: int,
           symbolic_seconds: float) -> Report:
     if symbolic.available() and symbolic.is_candidate(net) and probe < max_markings:
-        ss = rg.explore(net, max_markings=probe, max_tokens=max_tokens)
+        ss = rg.explore(net, max_markings=probe, max_tokens=max_tokens, arcs=False)
         if ss.complete:
             return explicit_report(net, ss)
         if rg.max_tokens(ss) <= 1:
@@ -74,7 +74,7 @@ def _auto(net: Net, max_markings: int, max_tokens: int, probe: int,
                 return symbolic_report(net, symbolic.explore(net, time_limit=symbolic_seconds))
             except (symbolic.NotOneSafe, symbolic.SymbolicLimit):
                 pass  # explicit after all
-    return explicit_report(net, rg.explore(net, max_markings, max_tokens))
+    return explicit_report(net, rg.explore(net, max_markings, max_tokens, arcs=False))
 
 
 def _header(net: Net) -> Report:

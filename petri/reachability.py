@@ -24,12 +24,14 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from petri.net import Net
+from petri.net import Net, triggers
 
 IntArray = npt.NDArray[np.integer]
 
-# Nets with at most this many places are first tried with the packed-integer engine for safe
-# nets (petri/_explore_bits.py), up to this many markings; above, numba's (or numpy's) engine.
+# Safe nets are first tried with the engine that keeps a marking as its set of marked places
+# (petri/_explore_bits.py). Its cost per marking is its number of tokens, while the dense
+# engines pay the net's width: on nets with at most SMALL_SAFE_PLACES places it is given up
+# (for numba's or numpy's engine) after SMALL_SAFE_MARKINGS markings, on wider ones never.
 SMALL_SAFE_PLACES = 4096
 SMALL_SAFE_MARKINGS = 100_000
 
@@ -52,6 +54,9 @@ class StateSpace:
     stop_reason: str = ""  # "" when complete, else what limit stopped the search
     engine: str = ""  # "numba" or "numpy"
     expanded: int = -1  # markings 0..expanded-1 have all their arcs (-1: all of them)
+    # When explored with arcs=False, src/dst/transition are empty and these count the arcs:
+    degree: npt.NDArray[np.int32] | None = None  # successors of each marking
+    fired: npt.NDArray[np.int64] | None = None  # firings of each transition
 
     @property
     def n_markings(self) -> int:
@@ -59,12 +64,15 @@ class StateSpace:
 
     @property
     def n_arcs(self) -> int:
+        if self.degree is not None:
+            return int(self.degree.sum())
         return int(self.src.shape[0])
 
 
 @dataclass(frozen=True)
 class _Compiled:
-    """The net in the flat arrays the kernels read (CSR lists per transition)."""
+    """The net in the flat arrays the kernels read: CSR lists per transition, built from the
+    sparse arcs (no place x transition matrix), and the transitions indexed by input place."""
 
     in_ptr: npt.NDArray[np.int64]  # inputs of t: in_place/in_w[in_ptr[t]:in_ptr[t+1]]
     in_place: npt.NDArray[np.int64]
@@ -72,24 +80,49 @@ class _Compiled:
     eff_ptr: npt.NDArray[np.int64]  # non-zero effect post - pre of t, same layout
     eff_place: npt.NDArray[np.int64]
     eff_delta: npt.NDArray[np.int64]
+    # The transitions examined when place p is marked, rd_t[rd_ptr[p]:rd_ptr[p+1]]: those
+    # looked up by p (petri.net.triggers; one list per row cell, padding included).
+    rd_ptr: npt.NDArray[np.int64]
+    rd_t: npt.NDArray[np.int64]
+    sources: npt.NDArray[np.int64]  # transitions without inputs (always examined)
     row: npt.NDArray[np.unsignedinteger]  # the initial marking, padded to whole words
 
 
 def compile_net(net: Net, max_tokens: int) -> _Compiled:
-    pre, post = net.pre(), net.post()
-    in_ptr, in_place, in_w = _csr(pre)
-    eff_ptr, eff_place, eff_delta = _csr(post - pre)
+    in_ptr, in_place, in_w = [0], [], []
+    eff_ptr, eff_place, eff_delta = [0], [], []
+    first = triggers(net)
+    for t, tr in enumerate(net.transitions):
+        for p, w in tr.inputs:
+            in_place.append(p)
+            in_w.append(w)
+        in_ptr.append(len(in_place))
+        for p, d in sorted(net.effect(t).items()):
+            eff_place.append(p)
+            eff_delta.append(d)
+        eff_ptr.append(len(eff_place))
     dtype = row_dtype(max_tokens)
     width = max(1, len(net.places))
     per_word = 8 // np.dtype(dtype).itemsize
     padded = -(-width // per_word) * per_word
     row = np.zeros(padded, dtype=dtype)
-    initial = net.initial_vector()
-    if initial.size and initial.max() > max_tokens:
-        raise ValueError(f"the initial marking has more than max_tokens={max_tokens} tokens "
-                         "in one place")
-    row[: len(initial)] = initial
-    return _Compiled(in_ptr, in_place, in_w, eff_ptr, eff_place, eff_delta, row)
+    for p, n in net.initial.items():
+        if n > max_tokens:
+            raise ValueError(f"the initial marking has more than max_tokens={max_tokens} "
+                             "tokens in one place")
+        row[p] = n
+    trigger = np.asarray(first, dtype=np.int64)
+    has = np.flatnonzero(trigger >= 0)
+    order = has[np.argsort(trigger[has], kind="stable")]  # by trigger place, then t
+    rd_ptr = np.zeros(padded + 1, dtype=np.int64)
+    np.cumsum(np.bincount(trigger[has], minlength=padded), out=rd_ptr[1:])
+
+    def ints(values: list[int]) -> npt.NDArray[np.int64]:
+        return np.asarray(values, dtype=np.int64)
+
+    return _Compiled(ints(in_ptr), ints(in_place), ints(in_w), ints(eff_ptr), ints(eff_place),
+                     ints(eff_delta), rd_ptr, order.astype(np.int64),
+                     np.flatnonzero(trigger < 0).astype(np.int64), row)
 
 
 def row_dtype(max_tokens: int) -> type[np.unsignedinteger]:
@@ -97,13 +130,6 @@ def row_dtype(max_tokens: int) -> type[np.unsignedinteger]:
         if max_tokens <= np.iinfo(dtype).max:
             return dtype
     raise ValueError(f"max_tokens={max_tokens} exceeds 2**32 - 1")
-
-
-def _csr(matrix: npt.NDArray[np.int64]) -> tuple[npt.NDArray[np.int64], ...]:
-    rows, cols = np.nonzero(matrix)
-    ptr = np.zeros(matrix.shape[0] + 1, dtype=np.int64)
-    np.cumsum(np.bincount(rows, minlength=matrix.shape[0]), out=ptr[1:])
-    return ptr, cols.astype(np.int64), matrix[rows, cols].astype(np.int64)
 
 
 def _kernel(engine: str) -> tuple[str, object]:
@@ -127,34 +153,41 @@ def default_engine() -> str:
 
 
 def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
-            engine: str = "auto") -> StateSpace:
+            engine: str = "auto", arcs: bool = True) -> StateSpace:
     """Breadth-first reachability graph of ``net`` from its initial marking.
 
     Stops (``complete=False``) after ``max_markings`` markings, or when a firing would put
     more than ``max_tokens`` tokens in a place. ``engine`` is "auto", "numba" or "numpy".
+    ``arcs=False`` keeps only the number of successors of each marking and of firings of
+    each transition (``degree``, ``fired``), not the arcs: enough for deadlocks, dead
+    transitions and bounds, in a third of the memory.
     """
     if not 1 <= max_markings < 2**31:
         raise ValueError("max_markings must lie in [1, 2**31)")
-    if engine == "bits" or (engine == "auto" and len(net.places) <= SMALL_SAFE_PLACES):
+    if engine in ("bits", "auto"):
         from petri._explore_bits import explore_bits
 
+        small = engine == "auto" and len(net.places) <= SMALL_SAFE_PLACES
         result = explore_bits(net, min(max_markings, SMALL_SAFE_MARKINGS)
-                              if engine == "auto" else max_markings)
-        if result is not None and (result[-1] or engine == "bits"):
-            markings, src, dst, tr, parent, parent_t, complete = result
+                              if small else max_markings, arcs=arcs)
+        if result is not None and (result[-1] or engine == "bits" or not small):
+            markings, src, dst, tr, parent, parent_t, expanded = result[:7]
+            complete = result[-1]
             ss = StateSpace(markings, src, dst, tr, bool(complete), None, parent,  # type: ignore[arg-type]
                             parent_t, engine="bits")  # type: ignore[arg-type]
+            if not arcs:
+                ss.degree, ss.fired = result[7], result[8]  # type: ignore[assignment]
             if not complete:
                 ss.stop_reason = f"more than {max_markings} markings"
+                ss.expanded = int(expanded)  # type: ignore[call-overload]
             return ss
     compiled = compile_net(net, max_tokens)
     name, kernel = _kernel(engine)
-    cells, parent, parent_t, src, dst, tr, status, stop_at, stop_t = kernel(  # type: ignore[operator]
-        compiled.row, compiled.in_ptr, compiled.in_place, compiled.in_w, compiled.eff_ptr,
-        compiled.eff_place, compiled.eff_delta, max_markings, max_tokens)
+    cells, parent, parent_t, src, dst, tr, status, stop_at, stop_t, degree, fired = kernel(  # type: ignore[operator]
+        compiled, max_markings, max_tokens, arcs)
     markings = cells[:, : len(net.places)]
     ss = StateSpace(markings, src, dst, tr, status == COMPLETE, None, parent, parent_t,
-                    engine=name)
+                    engine=name, degree=degree, fired=fired)
     if status == TOKEN_LIMIT:
         ss.stop_reason = f"more than {max_tokens} tokens in a place"
         ss.unbounded_place = _unbounded_witness(net, ss, int(stop_at), int(stop_t))
@@ -177,7 +210,8 @@ def _unbounded_witness(net: Net, ss: StateSpace, at: int, transition: int) -> in
         return None
     last = ss.markings[at].astype(np.int64)
     if transition >= 0:
-        last = last + net.incidence()[:, transition]
+        for p, d in net.effect(transition).items():
+            last[p] += d
     path = ss.markings[_path_markings(ss, at)].astype(np.int64)
     covered = np.all(path <= last, axis=1) & np.any(path < last, axis=1)
     if not covered.any():
@@ -200,6 +234,8 @@ def _path_markings(ss: StateSpace, index: int) -> list[int]:
 # -- questions about a state space ----------------------------------------------------------
 
 def out_degree(ss: StateSpace) -> npt.NDArray[np.int64]:
+    if ss.degree is not None:
+        return ss.degree.astype(np.int64)
     return np.bincount(ss.src, minlength=ss.n_markings)
 
 
@@ -217,7 +253,8 @@ def deadlocks(ss: StateSpace) -> npt.NDArray[np.int64]:
 
 def dead_transitions(net: Net, ss: StateSpace) -> list[int]:
     """Transitions that fire from no reachable marking (meaningful when ``ss.complete``)."""
-    fired = np.bincount(ss.transition, minlength=len(net.transitions))
+    fired = (ss.fired if ss.fired is not None
+             else np.bincount(ss.transition, minlength=len(net.transitions)))
     return [int(t) for t in np.flatnonzero(fired == 0)]
 
 

@@ -296,16 +296,16 @@ def test_cli_text_and_json(tmp_path: Path) -> None:
 
 def report_markings(net: Net) -> set[tuple[int, ...]]:
     """The reachable markings by a plain Python search (an independent count)."""
-    pre, post = net.pre(), net.post()
     start = tuple(int(x) for x in net.initial_vector())
     seen, todo = {start}, [start]
     for _ in range(10_000):  # the sample net has a handful of markings
         if not todo:
             break
         m = todo.pop()
-        for t in range(len(net.transitions)):
-            if all(m[p] >= pre[t, p] for p in range(len(m))):
-                nxt = tuple(int(m[p] - pre[t, p] + post[t, p]) for p in range(len(m)))
+        for t, tr in enumerate(net.transitions):
+            if all(m[p] >= w for p, w in tr.inputs):
+                effect = net.effect(t)
+                nxt = tuple(int(m[p] + effect.get(p, 0)) for p in range(len(m)))
                 if max(nxt) <= 50 and nxt not in seen:
                     seen.add(nxt)
                     todo.append(nxt)

@@ -18,9 +18,12 @@ def marking_set(ss: rg.StateSpace) -> set[tuple[int, ...]]:
 
 
 def fire(net: Net, marking: np.ndarray, t: int) -> np.ndarray:
-    pre, post = net.pre()[t], net.post()[t]
-    assert (marking >= pre).all(), f"transition {t} is not enabled"
-    return marking - pre + post
+    tr = net.transitions[t]
+    assert all(marking[p] >= w for p, w in tr.inputs), f"transition {t} is not enabled"
+    marking = marking.copy()
+    for p, d in net.effect(t).items():
+        marking[p] += d
+    return marking
 
 
 # -- hand-made nets -----------------------------------------------------------------------
@@ -326,3 +329,92 @@ def test_symbolic_agrees_with_explicit_on_random_safe_nets() -> None:
         assert result.max_tokens == rg.max_tokens(ss), net.name
         compared += 1
     assert compared >= 10
+
+
+# -- sparse nets: indexing by input place, counts without arcs, wide safe nets ---------------
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_counts_without_arcs_match_the_arcs(engine: str) -> None:
+    rng = np.random.default_rng(5)
+    for i in range(40):
+        net = random_net(rng, i)
+        for limits in ({"max_tokens": 6}, {"max_markings": 40, "max_tokens": 200}):
+            full = rg.explore(net, engine=engine, **limits)
+            lean = rg.explore(net, engine=engine, arcs=False, **limits)
+            assert lean.n_arcs == full.n_arcs and not lean.src.size
+            assert np.array_equal(rg.out_degree(lean), rg.out_degree(full)), net.name
+            assert np.array_equal(rg.deadlocks(lean), rg.deadlocks(full)), net.name
+            assert rg.dead_transitions(net, lean) == rg.dead_transitions(net, full)
+            assert np.array_equal(lean.markings, full.markings)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_a_marking_with_more_successors_than_a_batch(engine: str) -> None:
+    # one marked place enables 700 transitions (the kernel's batch holds 256 at first), and
+    # a transition without inputs fires everywhere
+    net = Net("wide")
+    hub = net.add_place("hub")
+    outs = [net.add_place(f"out{i}") for i in range(700)]
+    for i, p in enumerate(outs):
+        net.add_transition(f"t{i}", [hub], [p])
+    sink = net.add_place("sink")
+    net.add_transition("source", [], [sink])
+    net.initial = {hub: 1}
+    ss = rg.explore(net, engine=engine, max_tokens=3)
+    assert not ss.complete and ss.stop_reason == "more than 3 tokens in a place"
+    assert ss.unbounded_place == sink
+    net.transitions.pop()
+    ss = rg.explore(net, engine=engine)
+    assert ss.complete and ss.n_markings == 701 and ss.n_arcs == 700
+    assert sorted(int(t) for t in ss.transition) == list(range(700))
+
+
+def test_wide_safe_nets_by_marked_place_sets_as_by_rows() -> None:
+    # a chain of 5,000 places (wider than SMALL_SAFE_PLACES) with a side loop on each tenth
+    net = Net("chain")
+    places = [net.add_place(f"p{i}") for i in range(5000)]
+    for i in range(4999):
+        net.add_transition(f"step{i}", [places[i]], [places[i + 1]])
+    for i in range(0, 4990, 10):
+        net.add_transition(f"back{i}", [places[i + 5]], [places[i]])
+    net.initial = {places[0]: 1}
+    sets = rg.explore(net)
+    assert sets.engine == "bits" and sets.complete
+    rows = rg.explore(net, engine=ENGINES[-1])
+    for key in ("markings", "src", "dst", "transition", "parent", "parent_transition"):
+        assert np.array_equal(getattr(sets, key), getattr(rows, key)), key
+
+
+def test_transitions_are_looked_up_by_their_rarest_input() -> None:
+    from petri.net import triggers
+
+    net = Net("latch")
+    off = net.add_place("off")
+    begins = [net.add_place(f"begin{i}") for i in range(4)]
+    for i, b in enumerate(begins):
+        net.add_transition(f"t{i}", [off, b], [off])
+    assert triggers(net) == begins  # "off" is read by every transition, each begin by one
+
+
+def test_integer_and_set_markings_give_the_same_graph(monkeypatch: pytest.MonkeyPatch) -> None:
+    from mcl.api import compile_source
+    from mcl.errors import Source
+    from petri import _explore_bits
+
+    texts = ["MISSION { PARALLEL { Wait(1 s); GoTo((0, 0, 1, 0 deg)) } AND { Alarms() } }",
+             "MISSION { TRY { StartCamera(enable); Wait(2 s); StartCamera(disable) } "
+             "CATCH { Alarms() } DO { Surface() } }",
+             "MISSION { WHILE { Wait(1 s) } DO { PARALLEL { Wait(1 s) } OR { Alarms() } } }"]
+    for text in texts:
+        net = compile_source(Source("m.mcl", text)).net
+        ints = _explore_bits.explore_bits(net, 10_000)
+        monkeypatch.setattr(_explore_bits, "WIDE", 0)
+        sets = _explore_bits.explore_bits(net, 10_000)
+        lean = _explore_bits.explore_bits(net, 10_000, arcs=False)
+        monkeypatch.setattr(_explore_bits, "WIDE", 4096)
+        assert ints is not None and sets is not None and lean is not None
+        assert len(ints[0]) > 10  # type: ignore[arg-type]
+        for a, b in zip(ints, sets):
+            assert np.array_equal(np.asarray(a), np.asarray(b)), text
+        degree = np.bincount(np.asarray(ints[1]), minlength=len(ints[0]))  # type: ignore[arg-type]
+        assert np.array_equal(np.asarray(lean[7]), degree)

@@ -24,6 +24,7 @@ from ..errors import Span
 
 if TYPE_CHECKING:
     from ..checker import Checked
+    from ..latches import Flow
 
 
 @dataclass(frozen=True)
@@ -43,9 +44,27 @@ class Latch:
     behaviour: str
     off: int
     sites: dict[int, int] = field(default_factory=dict)  # id(Call) -> its "on" place
+    by_site: dict[str, int] = field(default_factory=dict)  # "line:col" -> its "on" place
 
     def states(self) -> list[int]:
         return [self.off, *self.sites.values()]
+
+    def among(self, values: frozenset[tuple[str, str]] | None) -> list[int]:
+        """The state places of this latch that ``values`` (pairs (behaviour, "off" | site)
+        from mcl/latches.py) allow, in the order of :meth:`states` (that of the places'
+        numbers: "off" is made before the sites, mcl/compiler.py); all of them when
+        ``values`` is None or names a state this latch does not know."""
+        if values is None:
+            return self.states()
+        wanted: set[int] = set()
+        for behaviour, value in values:
+            if behaviour != self.behaviour:
+                continue
+            place = self.off if value == "off" else self.by_site.get(value)
+            if place is None:
+                return self.states()
+            wanted.add(place)
+        return sorted(wanted)  # the order of states(): off, then the sites as made
 
 
 @dataclass
@@ -54,6 +73,18 @@ class Context:
     checked: Checked
     latches: dict[str, Latch] = field(default_factory=dict)
     names: set[str] = field(default_factory=set)
+    # Latch states that may hold at each call and in each block (None: assume any).
+    flow: Flow | None = None
+
+    def states_at_call(self, latch: Latch, call: ast.Call) -> list[int]:
+        """The states ``latch`` may be in when ``call`` runs."""
+        at = None if self.flow is None else self.flow.at_call.get(id(call))
+        return latch.among(at)
+
+    def states_in_block(self, latch: Latch, block: ast.Block) -> list[int]:
+        """The states ``latch`` may be in while ``block`` runs or is being stopped."""
+        at = None if self.flow is None else self.flow.at_block.get(id(block))
+        return latch.among(at)
 
     # -- naming and building ----------------------------------------------------------------
     def prefix(self, kind: str, span: Span) -> str:
@@ -99,18 +130,20 @@ class Context:
         """The place an aborted block goes to once its children have stopped. From there the
         latched behaviours switched on inside the block and still on are switched off, one
         behaviour after the other, before the block reports ``aborted``."""
-        inside = {id(c) for c in ast.calls(block)}
-        latched = [latch for _, latch in sorted(self.latches.items())
-                   if any(site in inside for site in latch.sites)]
+        owned: dict[str, set[int]] = {}  # behaviour -> its "on" places from inside
+        for call in ast.calls(block):  # linear in the block, whatever the number of latches
+            for behaviour, latch in self.latches.items():
+                if id(call) in latch.sites:
+                    owned.setdefault(behaviour, set()).add(latch.sites[id(call)])
+        latched = [latch for b, latch in sorted(self.latches.items()) if b in owned]
         if not latched:
             return aborted
         entry = current = self.place(f"{name}.cleanup", origin=origin)
         for i, latch in enumerate(latched):
             after = aborted if i == len(latched) - 1 else self.place(
                 f"{name}.cleanup{i + 1}", origin=origin)
-            for state in latch.states():
-                owned = any(state == on and site in inside for site, on in latch.sites.items())
-                if owned:
+            for state in self.states_in_block(latch, block):
+                if state in owned[latch.behaviour]:
                     self.transition(f"{name}.off.{self.net.places[state].name}",
                                     [current, state], [after, latch.off],
                                     f"switch {latch.behaviour} off (aborted)", origin,

@@ -30,14 +30,15 @@ def build(ctx: Context, call: ast.Call) -> Interface:
     name = ctx.prefix(call.name, call.span)
     origin = ctx.origin(call.span, printer.call(call), "task")
     io = ctx.interface(name, origin)
-    start = tuple(_action(ctx, a, resolved) for a in form.start)
-    stop = tuple(_action(ctx, a, resolved) for a in form.stop)
+    points: dict[str, object] = {}  # each point argument evaluated once, not once per field
+    start = tuple(_action(ctx, a, resolved, points) for a in form.start)
+    stop = tuple(_action(ctx, a, resolved, points) for a in form.stop)
 
     if form.immediate:
         if form.latch or form.unlatch:
             latch = ctx.latches[form.latch or form.unlatch or ""]
             target = latch.sites[id(call)] if form.latch else latch.off
-            for state in latch.states():
+            for state in ctx.states_at_call(latch, call):
                 ctx.transition(f"{name}.from.{ctx.net.places[state].name}",
                                [io.begin, state], [io.ok, target], "start and end",
                                origin, actions=start)
@@ -71,16 +72,23 @@ def build(ctx: Context, call: ast.Call) -> Interface:
     return io
 
 
-def _value(ctx: Context, expr: Expr, resolved: Resolved, kind: str) -> object:
+def _value(ctx: Context, expr: Expr, resolved: Resolved, kind: str,
+           points: dict[str, object] | None = None) -> object:
     """An action parameter or timer: a number or list, or {"param": name} when the mission
-    parameter it comes from has no value yet (the player fills it in at run time)."""
+    parameter it comes from has no value yet (the player fills it in at run time).
+    ``points``: the call's point arguments already evaluated (or the missing parameter's
+    name, as an Unresolved), by formal."""
     env = ctx.checked.params
     if isinstance(expr, Field):
-        value = resolved.args[expr.formal]
-        try:
-            point = evaluate(value, "point", env)
-        except Unresolved as missing:
-            return {"param": missing.name, "field": expr.field}
+        points = {} if points is None else points
+        if expr.formal not in points:
+            try:
+                points[expr.formal] = evaluate(resolved.args[expr.formal], "point", env)
+            except Unresolved as missing:
+                points[expr.formal] = missing
+        point = points[expr.formal]
+        if isinstance(point, Unresolved):
+            return {"param": point.name, "field": expr.field}
         index = POINT_FIELDS[expr.field]
         assert isinstance(point, list)
         return point[index] if index < len(point) else None
@@ -95,8 +103,10 @@ def _value(ctx: Context, expr: Expr, resolved: Resolved, kind: str) -> object:
         return {"param": missing.name}
 
 
-def _action(ctx: Context, spec: ActionSpec, resolved: Resolved) -> Action:
-    params = tuple((key, _value(ctx, expr, resolved, "list")) for key, expr in spec.bindings)
+def _action(ctx: Context, spec: ActionSpec, resolved: Resolved,
+            points: dict[str, object] | None = None) -> Action:
+    params = tuple((key, _value(ctx, expr, resolved, "list", points))
+                   for key, expr in spec.bindings)
     return Action(spec.kind, spec.behaviour, params)
 
 
