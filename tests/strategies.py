@@ -1,6 +1,6 @@
 """Hypothesis strategies for MCL: random *valid* missions as ASTs, and random text mutations.
 
-Two families of missions:
+Three families of missions:
 
 * :func:`ictineu_missions`: task calls of the shipped library (``core.tasks`` and
   ``ictineu.tasks``) with valid arguments, literal or through mission parameters (every
@@ -8,6 +8,8 @@ Two families of missions:
   optional mission name and an optional ``USES "ictineu";``.
 * :func:`generic_missions`: calls of ``tests.support.GENERIC_TASKS`` (A() .. D(), Now(),
   Lamp(enable) / Lamp(disable)), small enough for the verifier to explore.
+* :func:`route_missions` over :func:`route_libraries`: random task libraries whose behaviours
+  share degrees of freedom, latch, or watch (drive nothing), with 0 s and 1 s timers.
 
 Block shapes follow the AST's rules: a Sequence has two or more items and is never an item of
 another Sequence (a braced block of several items is only ever the child of a construct);
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from hypothesis import strategies as st
@@ -31,7 +34,8 @@ from mcl.parser import KEYWORDS
 NUMBERS = st.one_of(
     st.integers(-1000, 1000).map(float),
     st.floats(-1e4, 1e4, allow_nan=False, allow_infinity=False),
-    st.floats(allow_nan=False, allow_infinity=False),
+    # bounded so that any unit (km, h, rad) keeps them finite in base units
+    st.floats(-1e300, 1e300, allow_nan=False, allow_infinity=False),
 )
 NON_NEGATIVE = st.one_of(
     st.integers(0, 1000).map(float),
@@ -59,11 +63,12 @@ KIND_OF_PARAM = {name: kind for kind, names in PARAMS_OF.items() for name in nam
 def literal(kind: str) -> st.SearchStrategy[ast.Value]:
     """A literal value of a kind (no parameter references)."""
     if kind in UNITS_OF:
-        numbers = NON_NEGATIVE if kind == "duration" else NUMBERS
+        # lengths too: the shipped library declares tolerance, distance >= 0 m
+        numbers = NON_NEGATIVE if kind in ("duration", "length") else NUMBERS
         return st.builds(ast.Number, numbers, st.sampled_from(UNITS_OF[kind]))
-    if kind == "point":
-        return st.integers(2, 4).flatmap(lambda n: st.tuples(
-            *[literal("angle" if i == 3 else "length") for i in range(n)])).map(ast.Point)
+    if kind == "point":  # every field: (x, y, z, yaw)
+        return st.tuples(*[literal("angle" if i == 3 else "length")
+                           for i in range(4)]).map(ast.Point)
     if kind == "path":
         return st.lists(literal("point"), max_size=4).map(lambda ps: ast.ListValue(tuple(ps)))
     raise ValueError(kind)
@@ -77,8 +82,9 @@ def value(kind: str, with_params: bool) -> st.SearchStrategy[ast.Value]:
     # (x, y, z, yaw): lengths and an angle, each literal or a parameter
     point = st.integers(2, 4).flatmap(lambda n: st.tuples(
         *[value("angle" if i == 3 else "length", with_params) for i in range(n)])).map(ast.Point)
-    if kind == "point":
-        return st.one_of(point, refs)
+    if kind == "point":  # a point argument has every field (x, y, z, yaw)
+        return st.one_of(st.tuples(*[value("angle" if i == 3 else "length", with_params)
+                                     for i in range(4)]).map(ast.Point), refs)
     if kind == "path":
         # a path parameter may also be spliced into a list: [lane, (1, 2)] (a name in the
         # list is always a path, never a point parameter)
@@ -466,3 +472,59 @@ def any_missions(draw: st.DrawFn) -> ast.Mission:
 
     params = tuple(ast.Param(n, draw(any_value_for(n))) for n in names)
     return ast.Mission(draw(st.one_of(st.none(), NAMES)), body, params)
+
+
+# -- custom task libraries: degrees of freedom shared, latches, watchers (tests/test_routes.py)
+ROUTE_DOFS = ("x", "z", "yaw")
+
+
+@dataclass(frozen=True)
+class RouteLibrary:
+    """A random task library (``text``, a .tasks file) and the calls a mission may make of
+    it: waiting tasks that switch on one or two behaviours (which may share a degree of
+    freedom), latches and unlatches, watchers (behaviours that drive nothing), an immediate
+    task, and core timers of 0 s and 1 s."""
+
+    text: str
+    calls: tuple[ast.Call, ...]
+
+
+@st.composite
+def route_libraries(draw: st.DrawFn) -> RouteLibrary:
+    n = draw(st.integers(2, 4))
+    dofs = [draw(st.lists(st.sampled_from(ROUTE_DOFS), max_size=2, unique=True))
+            for _ in range(n)]
+    lines = [f"behaviour B{i}" + (f" drives {', '.join(d)}" if d else "") + " events ok, fail;"
+             for i, d in enumerate(dofs)]
+    calls: list[ast.Call] = [ast.Call("Now", ()),
+                             ast.Call("Wait", (ast.Arg(ast.Number(0.0, "s")),)),
+                             ast.Call("Wait", (ast.Arg(ast.Number(1.0, "s")),))]
+    lines.append("task Now() { }")
+    for j in range(draw(st.integers(1, 3))):
+        on = draw(st.lists(st.integers(0, n - 1), min_size=1, max_size=2, unique=True))
+        first = f"B{on[0]}"
+        clauses = [f"start: {', '.join(f'enable B{i}' for i in on)};"]
+        ok, fail = draw(st.booleans()), draw(st.booleans())
+        timeout = draw(st.sampled_from([None, "0 s -> ok", "0 s -> fail", "1 s -> ok",
+                                        "1 s -> fail"]))
+        if not (ok or fail or timeout):
+            ok = True  # a task that waits (one that ends at once cannot hold a behaviour)
+        clauses += [f"ok: {first}.ok;"] if ok else []
+        clauses += [f"fail: {first}.fail;"] if fail else []
+        clauses += [f"timeout: {timeout};"] if timeout else []
+        clauses.append(f"stop: {', '.join(f'disable B{i}' for i in on)};")
+        lines.append(f"task T{j}() {{ {' '.join(clauses)} }}")
+        calls.append(ast.Call(f"T{j}", ()))
+    for i in draw(st.lists(st.integers(0, n - 1), max_size=2, unique=True)):
+        lines.append(f"task L{i}(enable) {{ start: enable B{i}; latch: B{i}; }}")
+        lines.append(f"task L{i}(disable) {{ start: disable B{i}; unlatch: B{i}; }}")
+        calls += [ast.Call(f"L{i}", (ast.Arg(ast.Ref("enable")),)),
+                  ast.Call(f"L{i}", (ast.Arg(ast.Ref("disable")),))]
+    return RouteLibrary("\n".join(lines) + "\n", tuple(calls))
+
+
+def route_missions(library: RouteLibrary, max_depth: int = 2, max_calls: int = 5
+                   ) -> st.SearchStrategy[ast.Mission]:
+    """Missions over a :func:`route_libraries` library (small enough to enumerate)."""
+    return bodies(st.sampled_from(library.calls), max_depth, max_calls).map(
+        lambda body: ast.Mission(None, body))
