@@ -34,9 +34,14 @@ class Perception:
     wall_distance: float | None = None  # m, from the wall tracker; None when not tracked
     wall_heading: float | None = None  # rad, heading relative to the wall normal
     wall_normal: float | None = None  # rad, world direction of the wall's normal (static)
+    altitude: float | None = None  # m above the floor, from the DVL; None without bottom lock
+    area: tuple[float, float, float, float] | None = None  # the working area the vehicle is
+    # given (x_min, x_max, y_min, y_max, m, world frame); None: not limited
     leak: bool = False
     temperature: float = 20.0  # deg C inside the pressure vessels
     pressure: float = 1.0  # bar inside the pressure vessels
+    line: Any = None  # behaviours.seabed.LineView: the seabed line as the running tracker
+    # sees it (FollowPipeline, FollowCable, SearchLine); None when none runs
 
 
 @dataclass

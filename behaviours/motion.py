@@ -13,30 +13,99 @@ from typing import Any
 from .base import Behaviour, Perception, Response, clamp, wrap
 
 
+class Reach:
+    """Whether a target can still be reached, for the behaviours that move the vehicle to one:
+    a reason when it cannot, else None. Outside the working area (``Perception.area``); deeper
+    than the floor seen by the DVL (depth plus altitude) less ``clearance``; or no progress of
+    ``progress`` m (yaw counted as 1 m/rad) for ``patience`` s, whatever stopped the vehicle,
+    named from what the sensors show (the wall tracker's distance, the DVL's altitude)."""
+
+    def __init__(self, t: float, clearance: float, patience: float, progress: float) -> None:
+        self.clearance, self.patience, self.progress = clearance, patience, progress
+        self.floor: float | None = None  # m, the floor's depth under the vehicle (DVL)
+        self.best = math.inf  # the smallest remaining error so far
+        self.best_at = t
+
+    def check(self, p: Perception, tx: float, ty: float, tz: float,
+              error: float) -> str | None:
+        if p.area is not None:
+            x0, x1, y0, y1 = p.area
+            if not (x0 <= tx <= x1 and y0 <= ty <= y1):
+                return (f"the target ({tx:g}, {ty:g}) is outside the working area "
+                        f"(x {x0:g}..{x1:g} m, y {y0:g}..{y1:g} m)")
+        if p.altitude is not None:
+            self.floor = p.z + p.altitude
+        if self.floor is not None and tz > self.floor - self.clearance:
+            return (f"the target depth {tz:g} m is beyond the floor at {self.floor:.1f} m "
+                    f"(the vehicle's centre stays {self.clearance:g} m above it)")
+        if error < self.best - self.progress:
+            self.best, self.best_at = error, p.t
+            return None
+        if p.t - self.best_at < self.patience:
+            return None
+        stopped = f"no progress for {self.patience:g} s, {error:.1f} m short of the target"
+        if p.wall_distance is not None and p.wall_distance < self.clearance + 0.3:
+            if p.wall_normal is not None:
+                n = (math.cos(p.wall_normal), math.sin(p.wall_normal))
+                beyond = (tx - p.x) * n[0] + (ty - p.y) * n[1] - p.wall_distance
+                if beyond > -self.clearance:
+                    return (f"the target is inside the wall ({beyond:.1f} m beyond it): "
+                            f"stopped at the wall, {stopped}")
+            return f"stopped at the wall ({p.wall_distance:.2f} m from it): {stopped}"
+        if p.altitude is None or p.altitude < self.clearance + 0.3:
+            return f"stopped at the floor: {stopped}"
+        return f"stopped: {stopped}"
+
+
 class GoTo(Behaviour):
-    """Go to (x, y, z, yaw) in the world frame; 'reached' within the tolerance."""
+    """Go to (x, y, z, yaw) in the world frame; 'reached' within the tolerance.
+
+    'failed', with a ``reason`` and the target and position in its data, when the target cannot
+    be reached: it lies outside the working area the vehicle is given (``Perception.area``), or
+    deeper than the floor seen by the DVL less ``clearance``; or, whatever stops the vehicle
+    (the wall, the floor, a bank), when it makes no progress for ``patience`` s (see
+    :class:`Reach`). After failing it demands nothing (the vehicle stays where it stopped)
+    until it is disabled.
+    """
 
     name = "GoTo"
     drives = ("x", "y", "z", "yaw")
     events = ("reached", "failed")
 
-    def __init__(self, speed: float = 0.4, gain: float = 0.5, yaw_gain: float = 0.4) -> None:
+    def __init__(self, speed: float = 0.4, gain: float = 0.5, yaw_gain: float = 0.4,
+                 clearance: float = 0.4, patience: float = 30.0, progress: float = 0.1) -> None:
         super().__init__()
         self.speed, self.gain, self.yaw_gain = speed, gain, yaw_gain
+        self.clearance, self.patience, self.progress = clearance, patience, progress
+        self.failed = False
+
+    def on_initialise(self, t: float) -> None:
+        self.failed = False
+        self.reach = Reach(t, self.clearance, self.patience, self.progress)
 
     def on_update(self, p: Perception) -> Response:
+        if self.failed:
+            return Response({"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0})
         tx, ty, tz = (self.param(k, getattr(p, k)) for k in ("x", "y", "z"))
         tyaw = math.radians(self.param("yaw", math.degrees(p.psi)))
         ex, ey, ez = tx - p.x, ty - p.y, tz - p.z
         eyaw = wrap(tyaw - p.psi)
+        distance = math.sqrt(ex * ex + ey * ey + ez * ez)
+        reached = distance < self.param("tolerance", 0.5) and abs(eyaw) < math.radians(5)
+        if reached:
+            self.raise_event("reached")
+        elif not any(n == "reached" for n, _ in self.raised):
+            reason = self.reach.check(p, tx, ty, tz, distance + abs(eyaw))
+            if reason is not None:
+                self.failed = True
+                self.raise_event("failed", reason=reason, target=[tx, ty, tz],
+                                 position=[round(p.x, 2), round(p.y, 2), round(p.z, 2)])
+                return Response({"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0})
         c, s = math.cos(p.psi), math.sin(p.psi)
         # world error into the body frame
         eu, ev = c * ex + s * ey, -s * ex + c * ey
         horizontal = math.hypot(eu, ev)
         scale = min(1.0, self.speed / (self.gain * horizontal)) if horizontal > 1e-9 else 1.0
-        if math.sqrt(ex * ex + ey * ey + ez * ez) < self.param("tolerance", 0.5) and \
-                abs(eyaw) < math.radians(5):
-            self.raise_event("reached")
         return Response({"x": self.gain * eu * scale, "y": self.gain * ev * scale,
                          "z": clamp(self.gain * ez, self.speed), "yaw": clamp(
                              self.yaw_gain * eyaw, 0.3)})
@@ -61,13 +130,18 @@ class WallInspection(Behaviour):
     drives = ("y", "z")
     events = ("done", "failed")
 
-    def __init__(self, speed: float = 0.12, tolerance: float = 0.15) -> None:
+    def __init__(self, speed: float = 0.12, tolerance: float = 0.15, clearance: float = 0.4,
+                 patience: float = 30.0, progress: float = 0.05) -> None:
         super().__init__()
         self.speed, self.tolerance = speed, tolerance
+        self.clearance, self.patience, self.progress = clearance, patience, progress
         self.index = 0
+        self.failed = False
 
     def on_initialise(self, t: float) -> None:
         self.index = 0
+        self.failed = False
+        self.reach = Reach(t, self.clearance, self.patience, self.progress)
         try:
             self.path = wall_path(self.params.get("path"))
         except ValueError as exc:
@@ -75,19 +149,26 @@ class WallInspection(Behaviour):
             self.raise_event("failed", reason=str(exc))
 
     def on_update(self, p: Perception) -> Response:
-        if not self.path:
-            return Response()
+        if not self.path or self.failed:
+            return Response({"y": 0.0, "z": 0.0} if self.failed else {})
         while self.index < len(self.path):
             wy, wz = self.path[self.index]
             if math.hypot(wy - p.y, wz - p.z) > self.tolerance:
                 break
             self.index += 1
+            self.reach.best, self.reach.best_at = math.inf, p.t  # progress to the next one
         if self.index >= len(self.path):
             self.raise_event("done", waypoints=len(self.path))
             return Response({"y": 0.0, "z": 0.0})
         wy, wz = self.path[self.index]
         ey, ez = wy - p.y, wz - p.z
         d = math.hypot(ey, ez)
+        reason = self.reach.check(p, p.x, wy, wz, d)
+        if reason is not None:
+            self.failed = True
+            self.raise_event("failed", reason=f"waypoint {self.index + 1}: {reason}",
+                             waypoint=[wy, wz], position=[round(p.y, 2), round(p.z, 2)])
+            return Response({"y": 0.0, "z": 0.0})
         k = self.speed / max(d, self.speed)  # full speed far away, slow down on arrival
         # sway along the wall: world y expressed in the body frame (facing the wall, ~ +v)
         return Response({"y": k * ey * math.cos(p.psi), "z": k * ez})

@@ -27,10 +27,10 @@ from pymavlink import mavutil  # noqa: E402
 
 from vehicle_adapters import ardusub, signing  # noqa: E402
 
-from .support import REPO, first_line, free_udp_port  # noqa: E402
+from .support import REPO, budget, first_line, free_udp_port  # noqa: E402
 
 mav = mavutil.mavlink
-WAIT = 20.0  # wall s: the longest any single wait may take before the test fails
+WAIT = budget(3.0)  # wall s: the longest any single wait may take before the test fails
 GUIDED, SURFACE, MANUAL = ardusub.MODES["GUIDED"], ardusub.MODES["SURFACE"], \
     ardusub.MODES["MANUAL"]
 ARMED = mav.MAV_MODE_FLAG_SAFETY_ARMED
@@ -394,7 +394,7 @@ def test_bad_input_is_one_line_and_status_2(args: list[str], message: str) -> No
     env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
     env.pop(signing.ENV_KEY, None)
     done = subprocess.run([sys.executable, "-m", "mcl.cli.run", "vehicle", *args],
-                          capture_output=True, text=True, timeout=60, cwd=REPO, env=env,
+                          capture_output=True, text=True, timeout=budget(6), cwd=REPO, env=env,
                           stdin=subprocess.DEVNULL)
     assert done.returncode == 2
     assert done.stderr.startswith("mcl vehicle: error: ") and message in done.stderr

@@ -233,6 +233,68 @@ def test_goto_missing_coordinates_hold_the_current_ones() -> None:
 
 
 # --- WallInspection ---------------------------------------------------------------------------
+def test_goto_fails_at_once_on_a_target_outside_the_working_area() -> None:
+    b = GoTo()
+    b.initialise({"x": -200.0, "y": 0.0, "z": 5.0, "yaw": 0.0}, 0.0)
+    end, events, _ = closed_loop(b, at(0.0, -6.0, 0.0, 1.0, area=(-60.0, 60.0, -60.0, 60.0)),
+                                 20.0)
+    assert names(events) == ["failed"]
+    assert events[0][0] == 0.0 and "outside the working area" in events[0][2]["reason"]
+    assert events[0][2]["target"] == [-200.0, 0.0, 5.0]
+    assert math.dist((end.x, end.y, end.z), (-6.0, 0.0, 1.0)) < 1e-9  # it never moved
+
+
+def test_goto_fails_on_a_target_beyond_the_floor_the_dvl_sees() -> None:
+    b = GoTo()
+    b.initialise({"x": -3.0, "y": 0.0, "z": 18.0, "yaw": 0.0}, 0.0)
+    end, events, _ = closed_loop(b, at(0.0, -6.0, -2.0, 0.3, altitude=11.7), 20.0)
+    assert names(events) == ["failed"]
+    reason = events[0][2]["reason"]
+    assert "beyond the floor at 12.0 m" in reason and "18 m" in reason
+    assert math.dist((end.x, end.y, end.z), (-6.0, -2.0, 0.3)) < 1e-9
+    # a target 0.5 m above the floor is fine: reached
+    b.initialise({"x": -6.0, "y": -2.0, "z": 11.5, "yaw": 0.0, "tolerance": 0.3}, 0.0)
+    _, events, _ = closed_loop(b, at(0.0, -6.0, -2.0, 0.3, altitude=11.7), 60.0)
+    assert names(events) == ["reached"]
+
+
+def test_goto_stopped_by_the_wall_fails_saying_the_target_is_inside_it() -> None:
+    """The vehicle's hull stops 0.4 m from the wall (x = 0); the target is 2 m beyond it."""
+    b = GoTo(patience=20.0)
+    b.initialise({"x": 2.0, "y": 0.0, "z": 5.0, "yaw": 0.0}, 0.0)
+    p = at(0.0, -5.0, 0.0, 5.0)
+    events: list[tuple[float, str, dict[str, Any]]] = []
+    for _ in range(round(120.0 / DT)):
+        r = b.update(p)
+        events += [(p.t, n, d) for n, d in b.take_events()]
+        p = step(p, r)
+        x = min(p.x, -0.4)  # the wall stops the vehicle
+        p = replace(p, x=x, u=0.0 if x < p.x else p.u, wall_distance=-x, wall_heading=0.0,
+                    wall_normal=0.0)
+    assert names(events) == ["failed"]
+    t, _, data = events[0]
+    assert 20.0 + 4.6 / 0.4 - 1.0 < t < 20.0 + 4.6 / 0.4 + 5.0  # 4.6 m to the wall, 20 s
+    assert "inside the wall (2.0 m beyond it)" in data["reason"]
+    assert data["position"][0] == pytest.approx(-0.4)
+    assert b.update(p).demands == {"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0}  # it lets go
+
+
+def test_goto_moving_on_never_fails_for_want_of_progress() -> None:
+    b = GoTo(patience=5.0)
+    b.initialise({"x": 40.0, "y": 0.0, "z": 2.0, "yaw": 0.0, "tolerance": 0.3}, 0.0)
+    _, events, _ = closed_loop(b, at(0.0, 0.0, 0.0, 2.0), 200.0)
+    assert names(events) == ["reached"]
+
+
+def test_wall_inspection_fails_on_a_waypoint_beyond_the_floor() -> None:
+    b = WallInspection()
+    b.initialise({"path": [[0.0, 3.0], [0.0, 18.0]]}, 0.0)
+    end, events, _ = closed_loop(b, at(0.0, -1.5, 0.0, 2.0, altitude=10.0), 60.0)
+    assert names(events) == ["failed"]
+    assert events[0][2]["reason"].startswith("waypoint 2: the target depth 18 m is beyond")
+    assert end.z == pytest.approx(3.0, abs=0.2)  # the first waypoint was walked
+
+
 def wall_start(y: float, z: float) -> Perception:
     return at(0.0, x=-1.5, y=y, z=z, psi=0.0)  # facing the wall (x = 0) at 1.5 m
 

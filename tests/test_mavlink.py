@@ -38,7 +38,7 @@ from vehicle_adapters.inprocess import InProcess
 from vehicle_adapters.mavlink_link import MODES, MavlinkVehicle, mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: I001  (MAVLink 2 is set)
 
-from .support import BIN, MISSIONS, REPO, end, free_udp_port, started, stop
+from .support import BIN, MISSIONS, REPO, budget, end, free_udp_port, started, stop
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
 SPEED = 100.0  # the dam mission lasts ~1200 s of simulated time: ~15 s of wall time here
@@ -105,7 +105,7 @@ def vehicle_process(port: int, tmp_path: Path, *extra: str, speed: float = SPEED
                  ready=None, env=env(tmp_path)) as proc:
         lines = Lines(proc)
         try:
-            lines.wait_for("ready", 20)
+            lines.wait_for("ready", budget(3))
             yield proc, lines
         finally:
             end(proc)
@@ -190,7 +190,7 @@ def check_same_as_in_process(code: int, out: str, err: str, log: Path,
     assert task_sequence(records) == in_process["tasks"]
     assert transitions(records) == in_process["transitions"]
     replay = subprocess.run([str(BIN / "mcl"), "replay", str(log), DAM], capture_output=True,
-                            text=True, timeout=60, cwd=REPO)
+                            text=True, timeout=budget(6), cwd=REPO)
     assert replay.returncode == 0, replay.stdout + replay.stderr
     return records
 
@@ -276,11 +276,12 @@ def test_vehicle_killed_gives_link_lost_within_3_s_and_fail(tmp_path: Path) -> N
         wall = time.monotonic() - start
     assert killed, "the mission never reached GoTo.reached"
     assert vehicle.lost and vehicle.lost_at is not None
-    assert vehicle.lost_at - killed["at"] < 3.0, "Link.lost came late"
+    # three missed heartbeats (1 s apart) on an idle machine; slack for a loaded one
+    assert vehicle.lost_at - killed["at"] < 3.0 + budget(0.5), "Link.lost came late"
     events = [r.data["event"] for r in records if r.kind == "event"]
     assert events[-1] == "Link.lost"
     assert outcome.status == "fail", outcome
-    assert wall < 60
+    assert wall < budget(10)
 
 
 def test_vehicle_surfaces_when_the_player_goes_away(tmp_path: Path) -> None:
@@ -289,7 +290,7 @@ def test_vehicle_surfaces_when_the_player_goes_away(tmp_path: Path) -> None:
                          speed=20) as (vehicle, _):
         player = mcl_run(port, tmp_path)
         try:
-            Lines(player).wait_for("GoTo.reached", 30)  # armed, in GUIDED, on its way
+            Lines(player).wait_for("GoTo.reached", budget(6))  # armed, GUIDED, on its way
         finally:
             player.kill()  # no goodbye, no disarm
             player.wait(timeout=5)
@@ -300,7 +301,7 @@ def test_vehicle_surfaces_when_the_player_goes_away(tmp_path: Path) -> None:
                                               dialect="ardupilotmega")
         try:
             seen: dict[str, Any] = {"texts": []}
-            deadline = time.monotonic() + 10
+            deadline = time.monotonic() + budget(1.5)
             while time.monotonic() < deadline and seen.get("mode") != MODES["SURFACE"]:
                 msg = listener.recv_match(type=["HEARTBEAT", "STATUSTEXT"], blocking=True,
                                           timeout=0.5)
@@ -331,7 +332,7 @@ def test_vehicle_without_the_key_is_rejected_and_counted(tmp_path: Path, vehicle
     port = free_udp_port()
     with vehicle_process(port, tmp_path, *extra):
         with MavlinkVehicle(f"udpin:127.0.0.1:{port}", signing_key=bytes(range(32)),
-                            require_signing=True, connect_timeout=1.5,
+                            require_signing=True, connect_timeout=budget(0.3),
                             timestamp_file=tmp_path / "ts") as vehicle:
             events = vehicle.receive(vehicle.now() + 1.0)
     assert [e.event for e in events] == ["Link.lost"]
@@ -366,7 +367,7 @@ def test_vehicle_taken_over_gives_link_lost(tmp_path: Path) -> None:
                                    MODES["SURFACE"], wait=5) == \
                 mavutil.mavlink.MAV_RESULT_ACCEPTED
             events = []
-            deadline = time.monotonic() + 10
+            deadline = time.monotonic() + budget(1.0)
             while not events and time.monotonic() < deadline:
                 events = vehicle.receive(vehicle.now() + 1.0)
     assert [e.event for e in events] == ["Link.lost"], vehicle.lost_reason
@@ -378,7 +379,7 @@ def test_no_vehicle_gives_link_lost_without_hanging(tmp_path: Path) -> None:
     start = time.monotonic()
     with MavlinkVehicle(f"udpin:127.0.0.1:{port}", connect_timeout=0.5) as vehicle:
         events = vehicle.receive(vehicle.now() + 1.0)
-    assert time.monotonic() - start < 5
+    assert time.monotonic() - start < 0.5 + budget(1.0)  # the timeout, not a hang
     assert [e.event for e in events] == ["Link.lost"]
     assert vehicle.lost and "no HEARTBEAT" in vehicle.lost_reason
 
@@ -394,7 +395,7 @@ def test_bad_input_exits_2_with_a_clear_message(tmp_path: Path, args: list[str],
                                                 message: str) -> None:
     result = subprocess.run([str(BIN / "mcl"), "run", DAM, *args, "--log",
                              str(tmp_path / "run.jsonl")], capture_output=True, text=True,
-                            timeout=60, cwd=REPO, env=env(tmp_path), stdin=subprocess.DEVNULL)
+                            timeout=budget(6), cwd=REPO, env=env(tmp_path), stdin=subprocess.DEVNULL)
     assert result.returncode == 2, result.stdout + result.stderr
     assert message in result.stderr
     assert "Traceback" not in result.stderr
@@ -407,7 +408,7 @@ def test_port_in_use_exits_2(tmp_path: Path) -> None:
         result = subprocess.run([str(BIN / "mcl"), "run", DAM, "--vehicle",
                                  f"mavlink:udpin:127.0.0.1:{port}", "--log",
                                  str(tmp_path / "run.jsonl")], capture_output=True, text=True,
-                                timeout=60, cwd=REPO, env=env(tmp_path),
+                                timeout=budget(6), cwd=REPO, env=env(tmp_path),
                                 stdin=subprocess.DEVNULL)
     assert result.returncode == 2, result.stdout + result.stderr
     assert "cannot open it" in result.stderr and "Traceback" not in result.stderr

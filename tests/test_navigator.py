@@ -338,3 +338,62 @@ def test_initialised_from_the_first_fix_and_the_compass() -> None:
     assert nav.P[:3, :3] == pytest.approx(R) and nav.P[3, 3] == pytest.approx(
         math.radians(0.5) ** 2)
     assert np.all(nav.P[:4, 4:] == 0.0) and np.all(np.diag(nav.P)[4:] > 0.0)
+
+
+# --- staying bounded without the DVL ----------------------------------------------------------
+def blind_run(seconds: float = 120.0, seed: int = 4) -> tuple[Navigator, list[float]]:
+    """The vehicle sways off at full thrust from rest while the DVL has no lock (as on the
+    floor, where issue 12's estimate ran away); the navigator has heading, depth and USBL only.
+    The horizontal error at every USBL fix."""
+    env = Environment(floor_depth=12.0)
+    robot_rng, sensor_rng = np.random.default_rng(seed).spawn(2)
+    robot = Ictineu(VehicleState(-6.0, -2.0, 8.0, 0.0), rng=robot_rng, env=env)
+    sensors = Sensors(env, sensor_rng, usbl=Usbl(outlier_probability=0.0))
+    nav = Navigator.from_first_fix([-6.0, -2.0, 8.0], np.eye(3) * 0.05**2, 0.0)
+    errors, t_nav = [], 0.0
+    while robot.t < seconds:
+        truth = robot.step(0.05, (0.0, 22.0 if robot.t < 40.0 else -22.0, 5.9, 0.0))
+        for reading in sensors.sample(robot.t, truth):
+            nav.predict(robot.t - t_nav)
+            t_nav = robot.t
+            if isinstance(reading, DvlReading):
+                nav.dvl_lost()  # no bottom lock: its velocity is not used
+            elif isinstance(reading, DepthReading):
+                nav.update_depth(reading.depth)
+            elif isinstance(reading, HeadingReading):
+                nav.update_heading(reading.heading)
+            elif isinstance(reading, UsblFix):
+                nav.update_usbl(reading.position, reading.covariance)
+                errors.append(math.hypot(nav.x[0] - truth.x, nav.x[1] - truth.y))
+    return nav, errors
+
+
+def test_without_the_dvl_the_estimate_stays_with_the_usbl_fixes() -> None:
+    nav, errors = blind_run()
+    assert not nav.velocity_aided and len(errors) > 100
+    assert max(errors) < 1.0 and float(np.sqrt(np.mean(np.square(errors)))) < 0.3
+    assert nav.usbl_accepted > 0.9 * len(errors)
+
+
+def test_a_run_of_agreeing_rejected_fixes_resets_the_estimate_to_them() -> None:
+    x0 = np.array([-6.0, -2.0, 8.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    nav = Navigator(x0, np.diag([1e-4] * 3 + [1e-4] * 5), reacquire_after=3)
+    R = np.eye(3) * 0.01
+    far = np.array([-1.0, 3.0, 8.0])  # 7 m away: every fix fails the gate
+    assert not nav.update_usbl(far, R) and not nav.update_usbl(far + 0.1, R)
+    assert nav.x[:3] == pytest.approx(x0[:3]) and nav.usbl_reacquired == 0
+    assert not nav.update_usbl(far + 0.2, R)  # the third in a row: taken as a new first fix
+    assert nav.usbl_reacquired == 1 and nav.usbl_rejected == 3
+    assert nav.x[:3] == pytest.approx(far + 0.2)
+    assert nav.P[:3, :3] == pytest.approx(R) and np.all(nav.P[:3, 3:] == 0.0)
+    assert np.all(np.diag(nav.P)[4:7] >= 0.3**2 - 1e-12)
+    assert nav.update_usbl(far + 0.25, R)  # and the next one agrees
+
+
+def test_outliers_that_disagree_do_not_reset_the_estimate() -> None:
+    x0 = np.array([-6.0, -2.0, 8.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    nav = Navigator(x0, np.diag([1e-4] * 8), reacquire_after=3)
+    R = np.eye(3) * 0.01
+    for kick in ([4.0, 0, 0], [-4.0, 0, 0], [0, 4.0, 0], [0, -4.0, 0], [0, 0, 4.0]):
+        assert not nav.update_usbl(x0[:3] + np.array(kick), R)
+    assert nav.usbl_reacquired == 0 and nav.x[:3] == pytest.approx(x0[:3])

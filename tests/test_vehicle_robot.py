@@ -155,6 +155,39 @@ def test_floor_and_surface_stop_the_vehicle() -> None:
     assert min(s.z for s in up) >= 0.0 and up[-1].z == 0.0 and not robot.floor_contact
 
 
+@pytest.mark.parametrize("psi, tau", [(math.pi, (1000.0, 0.0, 0.0, 0.0)),  # astern: -x
+                                      (0.0, (0.0, -1000.0, 0.0, 0.0)),  # to port: -y
+                                      (0.0, (0.0, 1000.0, 0.0, 0.0))])  # to starboard: +y
+def test_the_banks_of_the_working_area_stop_the_vehicle(
+        psi: float, tau: tuple[float, float, float, float]) -> None:
+    env = Environment(area=(-10.0, 10.0, -5.0, 5.0))
+    robot = Ictineu(VehicleState(-6.0, 0.0, 3.0, psi), rng=np.random.default_rng(2), env=env)
+    touched = False
+    for s in run(robot, tau, 60.0):  # 0.5-0.65 m/s for a minute: far beyond the banks
+        ex = 0.4 * abs(math.cos(s.psi)) + 0.25 * abs(math.sin(s.psi))
+        ey = 0.4 * abs(math.sin(s.psi)) + 0.25 * abs(math.cos(s.psi))
+        assert -10.0 + ex - 1e-9 <= s.x and -5.0 + ey - 1e-9 <= s.y <= 5.0 - ey + 1e-9
+        assert env.where(s.x, s.y, s.z) is None
+        touched = touched or robot.edge_contact
+    assert touched and robot.collided and not robot.wall_contact
+    e = robot.state  # nothing left of the velocity into the bank it is pressed against
+    vx, vy = e.u * math.cos(e.psi) - e.v * math.sin(e.psi), e.u * math.sin(e.psi) + e.v * math.cos(e.psi)
+    into = {(-1.0, 0.0): -vx, (0.0, -1.0): -vy, (0.0, 1.0): vy}
+    side = (-1.0, 0.0) if tau[0] else (0.0, math.copysign(1.0, tau[1]))
+    assert into[side] <= 1e-9
+
+
+def test_where_says_why_a_point_is_not_in_the_water() -> None:
+    env = Environment(floor_depth=12.0, area=(-60.0, 60.0, -60.0, 60.0))
+    assert env.where(-3.0, 0.0, 5.0) is None
+    assert env.where(-3.0, 0.0, 18.0) == "beyond the floor (12 m)"
+    assert env.where(2.0, 0.0, 5.0) == "inside the wall"
+    assert env.where(-200.0, 0.0, 5.0) == "outside the working area (x -60..60 m, y -60..60 m)"
+    assert env.where(-3.0, 0.0, -1.0) == "above the surface"
+    assert env.where(-0.3, 0.0, 5.0, margin=0.4) == "inside the wall"  # the hull's half-length
+    assert env.where(-3.0, 0.0, 11.7, margin=0.4) == "beyond the floor (12 m)"
+
+
 def test_wall_geometry_against_brute_force() -> None:
     env = Environment(wall_curvature=0.04)
     ts = np.linspace(-30.0, 30.0, 600001)

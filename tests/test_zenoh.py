@@ -13,6 +13,7 @@ import queue
 import socket
 import subprocess
 import sys
+import threading
 import time
 from contextlib import AbstractContextManager, ExitStack
 from typing import Any
@@ -28,9 +29,10 @@ from petri.status import task_calls  # noqa: E402
 from vehicle.stack import IctineuStack, StackConfig  # noqa: E402
 from vehicle_adapters.aal import ActionMessage  # noqa: E402
 from vehicle_adapters.inprocess import InProcess  # noqa: E402
-from vehicle_adapters.zenoh_link import ZenohVehicle, keys, zenoh_config  # noqa: E402
+from vehicle_adapters.zenoh_link import LEASE_MS, ZenohVehicle, keys, zenoh_config  # noqa: E402
 
-from .support import MISSIONS, REPO, free_endpoint, started  # noqa: E402
+from .support import (  # noqa: E402
+    MISSIONS, REPO, TOLERANT_LEASE_MS, budget, free_endpoint, started)
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
 SPEED = 100.0  # the dam mission lasts ~1200 s of simulated time: ~12 s of wall time
@@ -38,11 +40,13 @@ SEED = 1
 POLL = 0.5  # s of vehicle time: the runner's longest wait (5 ms of wall time at SPEED)
 
 
-def vehicle_process(endpoint: str, *extra: str, speed: float = SPEED
+def vehicle_process(endpoint: str, *extra: str, speed: float = SPEED,
+                    lease_ms: int = TOLERANT_LEASE_MS
                     ) -> AbstractContextManager[subprocess.Popen[str]]:
     """The vehicle server as a real subprocess; yields once it says it is ready."""
+    env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", MCL_ZENOH_LEASE_MS=str(lease_ms))
     return started([sys.executable, "-m", "vehicle_adapters.serve", "--zenoh", endpoint,
-                    "--speed", str(speed), "--seed", str(SEED), *extra])
+                    "--speed", str(speed), "--seed", str(SEED), *extra], env=env)
 
 
 def transitions(records: list[Record]) -> list[str]:
@@ -72,6 +76,8 @@ def run_over_zenoh(compiled: Any, endpoint: str, observer: Any = None, max_time:
     player = Player(compiled.net)
     records: list[Record] = []
     player.observers.append(records.append)
+    if "config" not in options:
+        options.setdefault("lease_ms", TOLERANT_LEASE_MS)
     vehicle = ZenohVehicle(endpoint, "auv", **options)
     if observer is not None:
         player.observers.append(lambda r: observer(r, vehicle))
@@ -93,7 +99,7 @@ def test_dam_mission_over_zenoh_matches_in_process(compiled: Any,
         "GoTo.reached", "AchieveHeadDist.achieved", "WallInspection.done", "GoTo.reached"]
     assert vehicle.dropped == 0 and not vehicle.lost
     assert 1000 < outcome.time < 1400  # simulated seconds, as in process (~1200 s)
-    assert wall < 60
+    assert wall < budget(15)  # ~12 s idle: a hang, not slowness, fails this
 
 
 def test_vehicle_killed_mid_mission_gives_link_lost_and_fail(compiled: Any) -> None:
@@ -111,11 +117,12 @@ def test_vehicle_killed_mid_mission_gives_link_lost_and_fail(compiled: Any) -> N
         wall = time.monotonic() - start
     assert killed, "the mission never reached AchieveHeadDist.achieved"
     assert vehicle.lost and vehicle.lost_at is not None
-    assert vehicle.lost_at - killed["at"] < 1.0, "Link.lost came late"
+    # at once on an idle machine (the connection closes); the 1 s lease bounds it otherwise
+    assert vehicle.lost_at - killed["at"] < budget(1.0), "Link.lost came late"
     events = [r.data["event"] for r in records if r.kind == "event"]
     assert events[-1] == "Link.lost"
     assert outcome.status == "fail", outcome
-    assert wall < 30
+    assert wall < budget(5)
 
 
 def test_invalid_event_is_dropped_and_the_run_goes_on(compiled: Any,
@@ -130,7 +137,7 @@ def test_invalid_event_is_dropped_and_the_run_goes_on(compiled: Any,
     # as well as to the vehicle (peers do not forward for one another)
     rogue = free_endpoint()
     intruder = zenoh.open(zenoh_config(rogue, listen=True))
-    config = zenoh_config(endpoint, connect=True)
+    config = zenoh_config(endpoint, connect=True, lease_ms=TOLERANT_LEASE_MS)
     config.insert_json5("connect/endpoints", json.dumps([endpoint, rogue]))
     try:
         publisher = intruder.declare_publisher(keys("auv")["event"])
@@ -140,7 +147,7 @@ def test_invalid_event_is_dropped_and_the_run_goes_on(compiled: Any,
             def inject(record: Record, vehicle: ZenohVehicle) -> None:
                 if (record.kind == "event" and record.data["event"] == "GoTo.reached"
                         and not sent):
-                    deadline = time.monotonic() + 5  # until the player's subscriber is seen
+                    deadline = time.monotonic() + budget(1.5)  # the player's subscriber seen
                     while not publisher.matching_status and time.monotonic() < deadline:
                         time.sleep(0.001)
                     for g in garbage:
@@ -172,14 +179,14 @@ def test_vehicle_surfaces_when_the_player_goes_away() -> None:
                 vehicle.send(ActionMessage(0, vehicle.now(), "m", "GoTo@1:1", "enable", "GoTo",
                                            {"x": 0.0, "y": 0.0, "z": 2.0, "yaw": 0.0,
                                             "tolerance": 0.3}))
-                deadline = time.monotonic() + 5
+                deadline = time.monotonic() + budget(1.5)
                 while time.monotonic() < deadline:  # the action reached the stack
                     if "GoTo" in seen.get(timeout=max(0.01, deadline - time.monotonic()))[
                             "active"]:
                         break
                 else:
                     pytest.fail("GoTo never became active")
-            deadline = time.monotonic() + 5  # player gone: 0.3 s, then surface
+            deadline = time.monotonic() + budget(1.5)  # player gone: 0.3 s, then surface
             state: dict[str, Any] = {}
             while time.monotonic() < deadline and not state.get("failsafe"):
                 try:
@@ -198,7 +205,7 @@ def test_no_vehicle_gives_link_lost_without_hanging() -> None:
     start = time.monotonic()
     with ZenohVehicle(endpoint, "auv", connect_timeout=0.5) as vehicle:
         events = vehicle.receive(vehicle.now() + 1.0)
-    assert time.monotonic() - start < 5
+    assert time.monotonic() - start < 0.5 + budget(1.0)  # the timeout, not a hang
     assert [e.event for e in events] == ["Link.lost"]
     assert vehicle.lost
 
@@ -208,7 +215,8 @@ def test_no_vehicle_gives_link_lost_without_hanging() -> None:
 def mcl(*args: str) -> subprocess.Popen[str]:
     """A real ``mcl`` subprocess (stdout and stderr piped)."""
     return subprocess.Popen([sys.executable, "-m", "mcl.cli.run", *args], cwd=REPO,
-                            env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1"),
+                            env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1",
+                                     MCL_ZENOH_LEASE_MS=str(TOLERANT_LEASE_MS)),
                             stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
 
@@ -223,7 +231,7 @@ def stop(proc: subprocess.Popen[str]) -> tuple[str, str]:
         return proc.communicate(timeout=5)
 
 
-def wait_for(predicate: Any, what: str, timeout: float = 30.0) -> None:
+def wait_for(predicate: Any, what: str, timeout: float = budget(6)) -> None:
     deadline = time.monotonic() + timeout
     while not predicate():
         if time.monotonic() > deadline:
@@ -259,10 +267,18 @@ def test_monitor_follows_the_dam_mission_from_start_and_from_the_middle(tmp_path
             telemetry = Telemetry(endpoint)
             try:
                 # the early monitor is connected once the vehicle counts two clients' ... we
-                # cannot see that: wait for its first line instead
+                # cannot see that: wait for its line saying the vehicle is alive instead (on a
+                # loaded machine a "vehicle not seen" line may come first; the monitor's own
+                # --timeout bounds the wait)
                 assert early.stdout is not None
-                first = early.stdout.readline()
-                assert "vehicle alive" in first and "no mission yet" in first, first
+                first = ""
+                for _ in range(20):  # status lines until the vehicle is seen
+                    line = early.stdout.readline()
+                    first += line
+                    if not line or "vehicle alive" in line:
+                        break
+                last = first.splitlines()[-1] if first else ""
+                assert "vehicle alive" in last and "no mission yet" in last, first
                 player = mcl("run", DAM, "--vehicle", f"zenoh:{endpoint}", "--quiet",
                              "--log", str(log))
                 try:
@@ -270,14 +286,14 @@ def test_monitor_follows_the_dam_mission_from_start_and_from_the_middle(tmp_path
                              "WallInspection enabled")
                     late = mcl("monitor", "--zenoh", endpoint, "--until-end", "--plain",
                                "--timeout", "120")
-                    out, err = player.communicate(timeout=120)
+                    out, err = player.communicate(timeout=budget(12))
                 finally:
                     stop(player)
             finally:
                 telemetry.close()
             assert player.returncode == 0, out + err
-            early_out, _ = early.communicate(timeout=30)
-            late_out, late_err = late.communicate(timeout=30)
+            early_out, _ = early.communicate(timeout=budget(3))
+            late_out, late_err = late.communicate(timeout=budget(3))
         finally:
             stop(early)
             if late is not None:
@@ -304,7 +320,7 @@ def test_monitor_follows_the_dam_mission_from_start_and_from_the_middle(tmp_path
 
 def test_monitor_without_vehicle_gives_up_after_its_timeout() -> None:
     proc = mcl("monitor", "--zenoh", free_endpoint(), "--timeout", "1", "--plain")
-    out, err = proc.communicate(timeout=30)
+    out, err = proc.communicate(timeout=budget(3))
     assert proc.returncode == 3, (out, err)
     assert "waiting for the vehicle" in err and "Traceback" not in err
 
@@ -331,7 +347,7 @@ def test_player_restarted_leaves_nothing_enabled_and_its_actions_are_stale(tmp_p
             before = len(telemetry.states)
             second = mcl("run", str(short), "--vehicle", f"zenoh:{endpoint}", "--quiet",
                          "--log", str(tmp_path / "b.jsonl"))
-            out, err = second.communicate(timeout=60)
+            out, err = second.communicate(timeout=budget(6))
             assert second.returncode == 0, out + err
             wait_for(lambda: len(telemetry.states) > before + 2, "telemetry after the restart")
             after = telemetry.states[before:]
@@ -409,7 +425,7 @@ def test_monitor_on_a_terminal_redraws_one_screen() -> None:
                 if not chunk:
                     break
                 chunks.append(chunk)
-            proc.wait(timeout=30)
+            proc.wait(timeout=budget(3))
         finally:
             if proc.poll() is None:
                 proc.kill()
@@ -444,7 +460,7 @@ def test_other_endpoints_unix_socket_and_ipv6_loopback(kind: str, tmp_path: Any)
         proc = mcl("run", str(mission), "--vehicle", f"zenoh:{endpoint}", "--quiet",
                    "--log", str(tmp_path / "run.jsonl"))
         try:
-            out, err = proc.communicate(timeout=60)
+            out, err = proc.communicate(timeout=budget(6))
         finally:
             stop(proc)
     assert proc.returncode == 0, out + err
@@ -456,7 +472,7 @@ def test_vehicle_frozen_mid_mission_gives_link_lost_within_the_lease(compiled: A
 
     endpoint = free_endpoint()
     frozen: dict[str, float] = {}
-    with vehicle_process(endpoint) as proc:
+    with vehicle_process(endpoint, lease_ms=LEASE_MS) as proc:
         def freeze_on_achieved(record: Record, vehicle: ZenohVehicle) -> None:
             if (record.kind == "event" and record.data["event"] == "AchieveHeadDist.achieved"
                     and not frozen):
@@ -464,14 +480,16 @@ def test_vehicle_frozen_mid_mission_gives_link_lost_within_the_lease(compiled: A
                 frozen["at"] = time.monotonic()
 
         try:
-            outcome, records, vehicle = run_over_zenoh(compiled, endpoint, freeze_on_achieved)
+            outcome, records, vehicle = run_over_zenoh(compiled, endpoint, freeze_on_achieved,
+                                                       lease_ms=LEASE_MS)
         finally:
             proc.send_signal(signals.SIGCONT)  # so that it can be terminated
     assert frozen, "the mission never reached AchieveHeadDist.achieved"
     assert vehicle.lost and vehicle.lost_at is not None
     delay = vehicle.lost_at - frozen["at"]
-    # the transport lease is 1 s: the silence is noticed within it (plus scheduling slack)
-    assert delay <= 1.0 + 0.25, f"Link.lost {delay:.2f} s after the freeze"
+    # the transport lease is 1 s: the silence is noticed within it (plus scheduling slack,
+    # which a loaded machine stretches)
+    assert delay <= LEASE_MS / 1000 + budget(0.25), f"Link.lost {delay:.2f} s after the freeze"
     assert [r.data["event"] for r in records if r.kind == "event"][-1] == "Link.lost"
     assert outcome.status == "fail", outcome
 
@@ -493,11 +511,25 @@ def test_a_mission_that_catches_link_lost_reacts_as_written(tmp_path: Any) -> No
         try:
             player = mcl("run", str(mission), "--vehicle", f"zenoh:{endpoint}", "--quiet",
                          "--log", str(log))
+            lines: list[str] = []  # the monitor's, as they come
+
+            def read_monitor() -> None:
+                for line in monitor.stdout or ():
+                    lines.append(line)
+
+            reader = threading.Thread(target=read_monitor, daemon=True)
+            reader.start()
             try:
                 wait_for(lambda: "GoTo" in telemetry.last().get("active", []), "GoTo enabled")
+                # the monitor hears of the mission through the vehicle: before the kill (on a
+                # loaded machine it may lag the telemetry)
+                wait_for(lambda: any("GoTo@3:11" in line for line in lines),
+                         "the monitor showing the GoTo", timeout=budget(3))
                 vehicle.kill()
-                out, err = player.communicate(timeout=60)
-                seen, _ = monitor.communicate(timeout=60)
+                out, err = player.communicate(timeout=budget(6))
+                monitor.wait(timeout=budget(6))
+                reader.join(budget(0.5))
+                seen = "".join(lines)
             finally:
                 stop(player)
         finally:
@@ -539,7 +571,7 @@ def test_a_second_player_takes_the_vehicle_and_the_first_gets_link_lost() -> Non
             with ZenohVehicle(endpoint, "auv") as second:
                 assert not second.lost, second.lost_reason
                 events = []
-                deadline = time.monotonic() + 10
+                deadline = time.monotonic() + budget(1.0)
                 while not first.lost and time.monotonic() < deadline:
                     events += first.receive(first.now() + 1.0)
                 assert first.lost, "the first player never learnt it had lost the vehicle"

@@ -36,12 +36,13 @@ from vehicle_adapters.aal import ActionMessage  # noqa: E402
 from vehicle_adapters.zenoh_link import ZenohVehicle, keys, zenoh_config  # noqa: E402
 from vehicle_adapters.zenoh_security import Security  # noqa: E402
 
-from .support import BIN, REPO, cli, free_endpoint, started  # noqa: E402
+from .support import (  # noqa: E402
+    BIN, REPO, TOLERANT_LEASE_MS, budget, cli, free_endpoint, started)
 
 SPEED = 50.0
 K = keys("auv")
 SHORT = "MISSION {\n    StartLogs(enable);\n    Surface();\n    StartLogs(disable)\n}\n"
-WAIT = 10.0  # wall s: the longest wait for something that must happen
+WAIT = budget(1.0)  # wall s: the longest wait for something that must happen
 NEVER = 1.0  # wall s: how long to wait for something that must not happen (a refused session)
 
 
@@ -101,7 +102,8 @@ def action(seq: int, behaviour: str, run: str, kind: str = "enable") -> ActionMe
 
 def secured_player(endpoint: str, security: Security) -> ZenohVehicle:
     """The player's adapter with these credentials (entered by the caller)."""
-    return ZenohVehicle(endpoint, "auv", security=security, connect_timeout=WAIT)
+    return ZenohVehicle(endpoint, "auv", security=security, connect_timeout=WAIT,
+                        lease_ms=TOLERANT_LEASE_MS)
 
 
 def observer_tries_to_act(endpoint: str, security: Security, player: ZenohVehicle) -> None:
@@ -183,10 +185,10 @@ def test_users_the_player_runs_a_mission_an_observer_cannot_act(users: dict[str,
                              str(users["operator"])) as monitor:
             result = cli("mcl", "run", str(mission), "--vehicle", f"zenoh:{endpoint}",
                          "--user", "player", "--password-file", str(users["player"]),
-                         "--log", str(tmp_path / "run.jsonl"), timeout=60)
+                         "--log", str(tmp_path / "run.jsonl"), timeout=budget(6))
             assert result.returncode == 0, result.stdout + result.stderr
             assert "ended OK" in result.stdout
-            out, err = monitor.communicate(timeout=30)  # --until-end: it ends with the mission
+            out, err = monitor.communicate(timeout=budget(3))  # --until-end: it ends with the mission
         assert monitor.returncode == 0 and "ended OK" in out, out + err
         with secured_player(endpoint,
                             credentials("player", users["player"], endpoint)) as player:
@@ -224,7 +226,7 @@ def test_users_an_observer_running_a_mission_gets_link_lost_not_a_hang(
     with vehicle_process(endpoint, "--users", str(users["users"])):
         result = cli("mcl", "run", str(mission), "--vehicle", f"zenoh:{endpoint}",
                      "--user", "operator", "--password-file", str(users["operator"]),
-                     "--log", str(tmp_path / "run.jsonl"), timeout=60)
+                     "--log", str(tmp_path / "run.jsonl"), timeout=budget(6))
     assert result.returncode == 1, result.stdout + result.stderr
     assert "ended FAIL" in result.stdout
     assert "does not take this run" in result.stderr and "--player-user" in result.stderr
@@ -233,7 +235,7 @@ def test_users_an_observer_running_a_mission_gets_link_lost_not_a_hang(
 
 # -- mutual TLS ---------------------------------------------------------------------------------
 def openssl(*args: str, cwd: Path) -> None:
-    subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True, timeout=30)
+    subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True, timeout=budget(3))
 
 
 @pytest.fixture(scope="module")
@@ -279,7 +281,7 @@ def test_mtls_the_player_acts_an_observer_reads_a_rogue_is_refused(pki: Path,
     with vehicle_process(endpoint, *tls_options(pki, "vehicle")):
         result = cli("mcl", "run", str(mission), "--vehicle", f"zenoh:{endpoint}",
                      *tls_options(pki, "player"), "--log", str(tmp_path / "run.jsonl"),
-                     timeout=60)
+                     timeout=budget(6))
         assert result.returncode == 0, result.stdout + result.stderr
         assert "ended OK" in result.stdout
         # a certificate from another CA, even one saying CN=player, is refused
@@ -338,7 +340,7 @@ def test_misconfiguration_exits_2_with_one_clear_line(case: str, tmp_path: Path)
     args, message = bad_setups(tmp_path)[case]
     env_free = {k: v for k, v in os.environ.items() if k != zenoh_security.PASSWORD_ENV}
     result = subprocess.run([str(BIN / "mcl"), *args], capture_output=True, text=True,
-                            timeout=60, cwd=REPO, stdin=subprocess.DEVNULL, env=env_free)
+                            timeout=budget(6), cwd=REPO, stdin=subprocess.DEVNULL, env=env_free)
     assert result.returncode == 2, result.stdout + result.stderr
     assert "Traceback" not in result.stderr
     errors = [line for line in result.stderr.splitlines() if "error" in line]

@@ -14,6 +14,15 @@ USBL fixes pass the individual compatibility test (the Mahalanobis test of eq. 2
 §7 discards buoy outliers): D^2 = y^T S^-1 y must be below the chi-square value of the chosen
 confidence for 3 degrees of freedom, else the fix is rejected and counted.
 
+Staying bounded (not in the paper): the constant-velocity model's small accelerations hold while
+the DVL measures velocity; without bottom lock (on or near the floor, or too high above it)
+the velocity is unobserved and the vehicle's real accelerations (up to 0.5 m/s^2) would soon
+make every fix fail the gate and the estimate run away. So after :meth:`dvl_lost` the
+prediction uses ``unaided_accel_std`` until the next DVL update, and after ``reacquire_after``
+consecutive rejected fixes that agree with one another (successive fixes within
+``reacquire_jump`` m) the navigator takes the last one as a new first fix (§4.2: position and
+its covariance from the fix, the velocity's uncertainty widened), counted in ``usbl_reacquired``.
+
 Shaped like filterpy: ``predict(dt)``, ``update_*(z, R=None)``; inspectable ``x``, ``P``,
 ``x_prior``/``P_prior``, ``x_post``/``P_post``, the last innovation ``y``, its covariance
 ``S``, gain ``K`` and ``mahalanobis``. The heading residual and the state's heading wrap are
@@ -67,6 +76,8 @@ class NavigatorNoise:
     # n of eq. 3-5: 1 sigma of each acceleration averaged over one second (m/s^2, rad/s^2);
     # tuned on the simulated survey (tests/test_navigator.py): NEES about half its dimension
     accel_std: tuple[float, float, float, float] = (0.05, 0.05, 0.05, 0.02)
+    # the same without the DVL: what the thrusters can do (44 N on 90-120 kg, 8.8 N m)
+    unaided_accel_std: tuple[float, float, float, float] = (0.3, 0.3, 0.3, 0.05)
     dvl_accuracy: float = DVL_ACCURACY
     dvl_floor: float = DVL_NOISE_FLOOR  # m/s
     depth_std: float = DEPTH_STD  # m
@@ -82,7 +93,8 @@ class Navigator:
 
     def __init__(self, x0: npt.ArrayLike, P0: npt.ArrayLike, noise: NavigatorNoise | None = None,
                  *, transceiver: npt.ArrayLike | None = None, gate_confidence: float = 0.99,
-                 gate_threshold: float | None = None,
+                 gate_threshold: float | None = None, reacquire_after: int = 5,
+                 reacquire_jump: float = 2.0,
                  residual_heading: Callable[[FloatArray, FloatArray], FloatArray] = angle_residual,
                  wrap_heading: Callable[[float], float] = wrap_angle) -> None:
         self.x: FloatArray = np.array(x0, dtype=float).reshape(8)
@@ -102,6 +114,10 @@ class Navigator:
         self.mahalanobis = 0.0  # sqrt(D^2) of the last USBL fix tested
         self.usbl_accepted = 0
         self.usbl_rejected = 0
+        self.usbl_reacquired = 0  # times the estimate was reset to a fix (see above)
+        self.reacquire_after, self.reacquire_jump = reacquire_after, reacquire_jump
+        self.velocity_aided = True  # False from dvl_lost() to the next DVL update
+        self._rejected_run: list[FloatArray] = []  # consecutive rejected fixes
         self.x_prior, self.P_prior = self.x.copy(), self.P.copy()
         self.x_post, self.P_post = self.x.copy(), self.P.copy()
 
@@ -143,7 +159,8 @@ class Navigator:
         # n is white: averaged over a step of t seconds its variance is accel_std^2 / t, so
         # that the uncertainty added over a stretch of time does not depend on how often
         # predict is called (with a fixed variance per step it would).
-        var = np.square(self.noise.accel_std) / t if t > 0.0 else np.zeros(4)
+        accel = self.noise.accel_std if self.velocity_aided else self.noise.unaided_accel_std
+        var = np.square(accel) / t if t > 0.0 else np.zeros(4)
         self.Q = G @ np.diag(var) @ G.T
         self.F = F
         x_new = x.copy()
@@ -162,7 +179,12 @@ class Navigator:
         zz = np.asarray(z, dtype=float).reshape(3)
         if R is None:
             R = np.diag(dvl_std(zz, self.noise.dvl_accuracy, self.noise.dvl_floor) ** 2)
+        self.velocity_aided = True
         self._update(zz, _rows(U, V, W), R, plain_residual)
+
+    def dvl_lost(self) -> None:
+        """The DVL has no bottom lock: predict with the unaided accelerations until it has."""
+        self.velocity_aided = False
 
     def update_depth(self, z: float, R: npt.ArrayLike | None = None) -> None:
         """Depth from the pressure sensor (m)."""
@@ -192,10 +214,33 @@ class Navigator:
         if d2 > self.gate_threshold:
             self.y, self.S = y, S
             self.usbl_rejected += 1
+            run = self._rejected_run
+            if run and float(np.linalg.norm(zz - run[-1])) > self.reacquire_jump:
+                run.clear()  # not the same story: an outlier among them
+            run.append(zz)
+            if len(run) >= self.reacquire_after:
+                self._reacquire(zz, RR)
             return False
+        self._rejected_run.clear()
         self._update(zz, H, RR, plain_residual)
         self.usbl_accepted += 1
         return True
+
+    def _reacquire(self, z: FloatArray, R: FloatArray) -> None:
+        """Start again from the fix z (§4.2): the estimate had left the vehicle behind."""
+        self._rejected_run.clear()
+        self.usbl_reacquired += 1
+        self.x[:3] = z
+        P = self.P.copy()
+        P[:3, :] = 0.0
+        P[:, :3] = 0.0
+        P[:3, :3] = R
+        speed_var = np.square(self.noise.unaided_accel_std[:3])  # m/s after a second of it
+        for i, j in ((U, 0), (V, 1), (W, 2)):
+            P[i, :] = P[:, i] = 0.0
+            P[i, i] = max(float(self.P[i, i]), float(speed_var[j]))
+        self.P = P
+        self.x_post, self.P_post = self.x.copy(), self.P.copy()
 
     def _update(self, z: FloatArray, H: FloatArray, R: npt.ArrayLike,
                 residual: Callable[[FloatArray, FloatArray], FloatArray]) -> None:

@@ -29,7 +29,9 @@ Chosen here (not in the paper), see :class:`IctineuParams`:
   drawn from the generator passed in, so a run is a function of the seed.
 * Contact: the hull (its horizontal rectangle, 0.8 x 0.5 m) cannot cross the wall; the vehicle
   is pushed back out along the wall normal, the velocity into the wall is removed, and
-  ``wall_contact`` is set. Likewise the floor (``floor_contact``); the surface stops z at 0.
+  ``wall_contact`` is set. Likewise the floor (``floor_contact``) and the edges of the working
+  area (``edge_contact``: the reservoir's banks, x >= x_min and y_min <= y <= y_max); the
+  surface stops z at 0. Thrust into a contact does nothing: the vehicle stops there.
 """
 
 from __future__ import annotations
@@ -76,9 +78,14 @@ class VehicleState:
         return cls(*(float(e) for e in a[:8]))
 
 
+AREA = (-60.0, 60.0, -60.0, 60.0)  # m: x_min, x_max, y_min, y_max of the simulated reservoir
+
+
 @dataclass(frozen=True)
 class Environment:
-    """The reservoir: wall x = wall_curvature*y**2 (m), floor at floor_depth (m), water current.
+    """The reservoir: wall x = wall_curvature*y**2 (m), floor at floor_depth (m), water current,
+    and the working area (x_min, x_max, y_min, y_max) in m, whose edges are banks the hull
+    cannot cross (the water volume is inside the area, in front of the wall, above the floor).
 
     ``current`` is the world-frame current (m/s); ``current_fn``, if given, overrides it with a
     slowly varying current of time t (s).
@@ -88,6 +95,21 @@ class Environment:
     floor_depth: float = 12.0
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)
     current_fn: Callable[[float], Sequence[float]] | None = field(default=None, compare=False)
+    area: tuple[float, float, float, float] = AREA
+
+    def where(self, x: float, y: float, z: float, margin: float = 0.0) -> str | None:
+        """None if (x, y, z) is in the water at least ``margin`` m from the wall, the floor and
+        the area's edges (and below the surface); else why not, in words."""
+        x0, x1, y0, y1 = self.area
+        if not (x0 + margin <= x <= x1 - margin and y0 + margin <= y <= y1 - margin):
+            return (f"outside the working area (x {x0:g}..{x1:g} m, y {y0:g}..{y1:g} m)")
+        if self.distance_to_wall(x, y) < margin:
+            return "inside the wall"
+        if z > self.floor_depth - margin:
+            return f"beyond the floor ({self.floor_depth:g} m)"
+        if z < 0.0:
+            return "above the surface"
+        return None
 
     def wall_x(self, y: float) -> float:
         """x of the wall surface at along-wall coordinate y (m)."""
@@ -220,6 +242,7 @@ class Ictineu:
         self.tau_applied: FloatArray = np.zeros(4)  # N, N m, after saturation
         self.wall_contact = False  # during the last step()
         self.floor_contact = False
+        self.edge_contact = False  # with an edge of the working area
         self.collisions = 0  # number of times the hull came into contact with the wall
         self._touching = False
         cx, cy, cz = self.env.current_at(t0)
@@ -231,8 +254,8 @@ class Ictineu:
 
     @property
     def collided(self) -> bool:
-        """Did the hull touch the wall or the floor during the last step?"""
-        return self.wall_contact or self.floor_contact
+        """Did the hull touch the wall, the floor or an edge of the area during the last step?"""
+        return self.wall_contact or self.floor_contact or self.edge_contact
 
     @property
     def state(self) -> VehicleState:
@@ -253,7 +276,7 @@ class Ictineu:
             raise ValueError(f"dt must be >= 0, got {dt}")
         f, applied = allocate(tau, self.params, self._pinv)
         self.thrust, self.tau_applied = f, applied
-        self.wall_contact = self.floor_contact = False
+        self.wall_contact = self.floor_contact = self.edge_contact = False
         n = max(1, math.ceil(dt / self.params.dt - 1e-9)) if dt > 0.0 else 0
         h = dt / n if n else 0.0
         ta = (float(applied[0]), float(applied[1]), float(applied[2]), float(applied[3]))
@@ -286,13 +309,13 @@ class Ictineu:
         return [c * ur - sn * vr + cx, sn * ur + c * vr + cy, wr + cz, r, du, dv, dw, dr]
 
     def _enforce_limits(self) -> None:
-        """Keep the hull out of the wall and the floor and below the surface."""
+        """Keep the hull out of the wall, the floor and the area's edges, and below the surface."""
         x, y, z, psi, ur, vr, wr, r = self._s
         cx, cy, cz = self.env.current_at(self.t)
         c, s = math.cos(psi), math.sin(psi)
         vx, vy, vz = c * ur - s * vr + cx, s * ur + c * vr + cy, wr + cz
         p = self.params
-        hit_wall = hit_floor = moved = False
+        hit_wall = hit_floor = hit_edge = moved = False
         for _ in range(3):  # the push is along the local normal: repeat for a curved wall
             foot = self.env.wall_foot(x, y)
             nx, ny = self.env.wall_normal(foot)
@@ -306,6 +329,17 @@ class Ictineu:
             vn = vx * nx + vy * ny
             if vn > 0.0:
                 vx, vy = vx - vn * nx, vy - vn * ny
+        ax0, ax1, ay0, ay1 = self.env.area  # the banks: axis-aligned, the hull's extent on each
+        ex = p.half_length * abs(c) + p.half_width * abs(s)
+        ey = p.half_length * abs(s) + p.half_width * abs(c)
+        if x < ax0 + ex or x > ax1 - ex:
+            x = min(max(x, ax0 + ex), ax1 - ex)
+            vx = max(vx, 0.0) if x <= ax0 + ex else min(vx, 0.0)
+            hit_edge = moved = True
+        if y < ay0 + ey or y > ay1 - ey:
+            y = min(max(y, ay0 + ey), ay1 - ey)
+            vy = max(vy, 0.0) if y <= ay0 + ey else min(vy, 0.0)
+            hit_edge = moved = True
         z_max = self.env.floor_depth - p.half_height
         if z > z_max:
             z, vz, hit_floor, moved = z_max, min(vz, 0.0), True, True
@@ -320,3 +354,4 @@ class Ictineu:
         self._touching = hit_wall
         self.wall_contact = self.wall_contact or hit_wall
         self.floor_contact = self.floor_contact or hit_floor
+        self.edge_contact = self.edge_contact or hit_edge
