@@ -181,3 +181,32 @@ def test_parameter_file(tmp_path: Path) -> None:
         parse_params([], [str(bad)])
     assert info.value.errors[0].span is not None
     assert (info.value.errors[0].span.line, info.value.errors[0].span.col) == (1, 1)
+
+
+# -- output files and endpoints (issue 12): one line naming the file or option, exit 2 --------
+@pytest.mark.parametrize("option, target, words", [
+    ("--dot", "out", "is a directory"),
+    ("--pnml", "no/such/dir/x.pnml", "no folder 'no/such/dir'"),
+    ("--net-json", "out", "is a directory"),
+])
+def test_an_output_that_cannot_be_written_is_invalid_input(tmp_path: Path, option: str,
+                                                           target: str, words: str) -> None:
+    (tmp_path / "out").mkdir()
+    path = write(tmp_path, "MISSION {\n  Surface()\n}\n")
+    proc = cli("mclc", str(path), option, target, "--no-verify", cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    first = proc.stderr.splitlines()[0]
+    assert first.startswith(f"{target}: error: cannot write it ({option}): {words}"), first
+    assert "Traceback" not in proc.stderr and "internal error" not in proc.stderr
+
+
+def test_a_zenoh_endpoint_that_is_not_one_is_invalid_input(tmp_path: Path) -> None:
+    path = write(tmp_path, "MISSION {\n  Surface()\n}\n")
+    for endpoint, words in (("garbage", "not an endpoint"), ("foo/127.0.0.1:1",
+                                                             "unknown protocol 'foo'")):
+        proc = cli("mcl", "run", str(path), "--vehicle", f"zenoh:{endpoint}",
+                   "--log", str(tmp_path / "x.jsonl"))
+        assert proc.returncode == 2, proc.stderr
+        assert proc.stderr.startswith(f"--vehicle zenoh:{endpoint}: error: {words}"), \
+            proc.stderr
+        assert ".rs:" not in proc.stderr and "Traceback" not in proc.stderr

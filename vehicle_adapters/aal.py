@@ -111,6 +111,18 @@ def _require(d: dict[str, Any], fields: dict[str, type | tuple[type, ...]]) -> N
         raise InvalidMessage("field 'seq' is negative")
 
 
+@dataclass(frozen=True)
+class Declaration:
+    """What a vehicle can do, said in the task library's own form: ``behaviour NAME drives
+    ... events ...;`` statements (``mcl/grammar/tasks.lark``), the same declarations a task
+    library is checked against. ``vehicle`` names the vehicle in messages, ``source`` where
+    the text comes from (a file, or the vehicle's own answer over its link)."""
+
+    vehicle: str
+    source: str
+    text: str
+
+
 class Vehicle(Protocol):
     """What the player needs from any vehicle adapter (a context manager).
 

@@ -509,6 +509,10 @@ class ArduSubVehicle:
                  f"{s['images']} images, {100 * s['share_seen_twice']:.0f} % of it in two or more",
                  f"  navigator error {s['navigator_rms_m']} m RMS (USBL fixes {s['usbl_fixes']}, "
                  f"{s['usbl_rejected']} rejected)"]
+        on = sorted(n for n, b in self.stack.behaviours.items() if b.active)
+        lines.append(f"  behaviours on at exit: {', '.join(on) or 'none'} "
+                     f"(mode {MODE_NAMES.get(self.mode, self.mode)}, "
+                     f"{'armed' if self.armed else 'disarmed'})")
         if self.signing is not None:
             c = self.signing.counts()
             lines.append(f"  signing: {c['signed']} signed accepted, {c['unsigned']} unsigned "
@@ -553,6 +557,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.require_signing and key is None:
             raise ValueError(f"--require-signing needs a key: --signing-key FILE or "
                              f"${signing.ENV_KEY}")
+        for option, value in (("--gcs-timeout", args.gcs_timeout),
+                              ("--pilot-timeout", args.pilot_timeout)):
+            if not (value > 0 and math.isfinite(value)):
+                raise ValueError(f"{option} {value}: must be a positive number of seconds")
+        if args.log_level.upper() not in ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL"):
+            raise ValueError(f"--log-level {args.log_level}: use DEBUG, INFO, WARNING, ERROR "
+                             "or CRITICAL")
     except ValueError as exc:  # SigningError is a ValueError
         print(f"mcl vehicle: error: {exc}", file=sys.stderr)
         return 2

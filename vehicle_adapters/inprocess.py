@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import logging
 import time
-from typing import Protocol
+from typing import Any, Protocol
 
-from .aal import ActionMessage, EventMessage, InvalidMessage
+from .aal import ActionMessage, Declaration, EventMessage, InvalidMessage
 
 log = logging.getLogger(__name__)
+
+MAX_WAIT = 0.2  # wall s: the longest single wait of a real-time run
 
 
 class SimulatedStack(Protocol):
@@ -27,11 +29,14 @@ class InProcess:
 
     simulated = True  # its clock jumps to the next event: the runner need not poll
 
-    def __init__(self, stack: SimulatedStack, start: float = 0.0, speed: float | None = None):
+    def __init__(self, stack: SimulatedStack, start: float = 0.0, speed: float | None = None,
+                 declaration: Declaration | None = None):
         """``speed``: run the simulated clock at this many times wall time (1: real time);
-        None: as fast as possible."""
+        None: as fast as possible. ``declaration``: what the stack can do (its behaviours and
+        events, in the task library's form)."""
         self.stack = stack
-        self._now = start
+        self._declaration = declaration
+        self._now = self._start = start
         self.speed = speed
         self._wall0 = time.monotonic()
         self.dropped = 0  # invalid messages received and dropped
@@ -55,15 +60,23 @@ class InProcess:
         self.stack.on_action(received, self._now)
 
     def receive(self, until: float) -> list[EventMessage]:
+        """With ``speed``, the clock is held back to wall time: it waits at most
+        ``MAX_WAIT`` wall seconds and returns (perhaps nothing, the clock advanced as far as
+        wall time allows), so that the caller can look at other things (a stop) meanwhile."""
         nxt = self.stack.next_time()
+        target = until if nxt is None or nxt > until else nxt
+        if self.speed:  # hold the simulated clock back to wall time
+            ahead = (target - self._start) / self.speed - (time.monotonic() - self._wall0)
+            if ahead > 0:
+                time.sleep(min(ahead, MAX_WAIT))
+                reached = self._start + (time.monotonic() - self._wall0) * self.speed
+                if reached < target:
+                    self._now = max(self._now, reached)
+                    return []
         if nxt is None or nxt > until:
             self._now = max(self._now, until)
             return []
         self._now = max(self._now, nxt)
-        if self.speed:  # hold the simulated clock back to wall time
-            ahead = self._now / self.speed - (time.monotonic() - self._wall0)
-            if ahead > 0:
-                time.sleep(min(ahead, 1.0))
         events = []
         for event in self.stack.due(self._now):
             try:
@@ -75,3 +88,25 @@ class InProcess:
 
     def idle(self) -> bool:
         return self.stack.next_time() is None
+
+    def declaration(self) -> Declaration | None:
+        return self._declaration
+
+    def active(self) -> list[str] | None:
+        """The behaviours the stack has on (None if it cannot say)."""
+        active = getattr(self.stack, "active", None)
+        if callable(active):
+            return sorted(active())
+        behaviours: Any = getattr(self.stack, "behaviours", None)
+        if isinstance(behaviours, dict):
+            return sorted(n for n, b in behaviours.items() if getattr(b, "active", False))
+        return None
+
+    def confirm_off(self, names: list[str], timeout: float) -> str:
+        """The stack takes actions at once: read what it has on."""
+        active = self.active()
+        if active is None:
+            return "not confirmed: the stack cannot say what it has on"
+        if active:
+            return f"NOT confirmed: the vehicle still has {', '.join(active)} on"
+        return "confirmed: the vehicle has no behaviour on"

@@ -60,7 +60,8 @@ from behaviours.base import wrap  # noqa: E402
 from mcl.errors import Diagnostic, MclError  # noqa: E402
 
 from . import signing  # noqa: E402
-from .aal import ActionMessage, EventMessage  # noqa: E402
+from . import capabilities  # noqa: E402
+from .aal import ActionMessage, Declaration, EventMessage  # noqa: E402
 from .ardusub_protocol import GCS_SYSID, MODE_NAMES, MODES, VEHICLE_SYSID, parse_url  # noqa: E402
 from .link import MAX_POLL, RemoteVehicle  # noqa: E402
 from .mavlink_behaviours import (  # noqa: E402
@@ -261,6 +262,37 @@ class MavlinkVehicle(RemoteVehicle):
                 self.conn.close()
             self.conn = None
             log.info("MAVLink link closed: %s", self.summary())
+
+    def declaration(self) -> Declaration:
+        """What this adapter can make an ArduSub-class vehicle do: the Ictineu task library's
+        declarations of the behaviours it maps (its own and the commands')."""
+        names = set(self.behaviours) | {name for name, _ in COMMANDS}
+        return capabilities.ictineu(f"mavlink:{self.url} (an ArduSub-class vehicle)", names)
+
+    def confirm_off(self, names: list[str], timeout: float) -> str:
+        """Wait (at most ``timeout`` wall s) for the COMMAND_ACK of every command sent (the
+        camera's and the logger's stop among them); the behaviours the adapter runs itself are
+        off as soon as they are disabled."""
+        if self._lost:
+            return f"not confirmed: the link is lost ({self.lost_reason})"
+        end = time.monotonic() + timeout
+        while True:
+            with self._lock:
+                pending = [c.command for c in self._pending]
+                on = sorted(n for n, b in self.behaviours.items() if b.active)
+            refused = [n for n in names if (n, "disable") in COMMANDS and
+                       self.results.get(COMMANDS[n, "disable"]) != mavlink.MAV_RESULT_ACCEPTED]
+            if not pending and not on and not refused:
+                return (f"confirmed: every command acknowledged ({self.acks_received} "
+                        "COMMAND_ACKs), no behaviour on")
+            if not pending and refused:
+                return f"NOT confirmed: the vehicle did not accept stopping {', '.join(refused)}"
+            if time.monotonic() >= end:
+                break
+            time.sleep(0.02)
+        what = [f"{len(pending)} command(s) unacknowledged"] if pending else []
+        what += [f"{', '.join(on)} still on"] if on else []
+        return f"NOT confirmed within {timeout:g} s: {'; '.join(what)}"
 
     def summary(self) -> dict[str, Any]:
         """What went over the link: counts, command latencies, signing."""

@@ -10,15 +10,29 @@ For tests, and for mission authors who want to try a mission without a vehicle::
     time = 40.0
     event = "Alarms.leak"
 
+    tasks = ["ictineu"]                                 # what this vehicle can do (below)
+
+What the vehicle can do is declared in the task library's own form: ``tasks`` names the
+libraries (shipped ones by name, other ``.tasks`` files relative to this file; default
+``["ictineu"]``) whose ``behaviour NAME ... events ...;`` statements this vehicle has. A
+behaviour or an event the file names that those libraries do not declare is an error with its
+``file:line:col`` (:func:`check_script`), and the player refuses a mission that needs a
+behaviour or an event the libraries do not declare.
+
 A behaviour the file does not mention never answers. Disabling a behaviour cancels its
-answers that have not come yet; enabling it again schedules them anew. An ``[[at]]`` event
+answers that have not come yet; enabling it again schedules them anew. Staleness is judged
+when an answer is delivered, one at a time: an answer of a behaviour disabled (and perhaps
+enabled again) in the same instant is never delivered to its next enable. An ``[[at]]`` event
 comes at its time whatever the vehicle is doing.
 """
 
 from __future__ import annotations
 
 import heapq
+import os
+import re
 import tomllib
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,7 +40,18 @@ from .aal import ActionMessage, EventMessage
 
 
 class ScriptError(ValueError):
-    """A scripted-vehicle file that cannot be used; the message says where and why."""
+    """A scripted-vehicle file that cannot be used; the message says where and why (and
+    ``place``, ``hint``: the 1-based line and column, and what to do, when known)."""
+
+    def __init__(self, message: str, place: tuple[str, int, int] | None = None,
+                 hint: str = ""):
+        super().__init__(message)
+        self.place, self.hint = place, hint
+
+
+def _unknown(script: Script, line: int, col: int, message: str, hint: str) -> ScriptError:
+    return ScriptError(f"{script.path}:{line}:{col}: error: {message}\n  hint: {hint}",
+                       (script.path, line, col), hint)
 
 
 @dataclass(frozen=True)
@@ -40,27 +65,44 @@ class Answer:
 class Script:
     answers: dict[str, list[Answer]] = field(default_factory=dict)  # behaviour -> answers
     at: list[tuple[float, str, dict[str, Any]]] = field(default_factory=list)  # (t, "S.e", data)
+    tasks: list[str] = field(default_factory=lambda: ["ictineu"])  # what the vehicle can do
+    path: str = "<script>"
+    text: str = ""  # the file's text, for the lines of errors
 
 
 def load_script(path: str) -> Script:
     try:
         with open(path, "rb") as f:
-            doc = tomllib.load(f)
+            raw = f.read()
+        doc = tomllib.loads(raw.decode("utf-8"))
     except FileNotFoundError:
         raise ScriptError(f"{path}: no such file") from None
     except tomllib.TOMLDecodeError as exc:
         raise ScriptError(f"{path}: not valid TOML: {exc}") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ScriptError(f"{path}: cannot be read: {exc}") from None
-    return parse_script(doc, path)
+    script = parse_script(doc, path)
+    script.text = raw.decode("utf-8")
+    base = os.path.dirname(path)
+    script.tasks = [t if "/" not in t and not t.endswith(".tasks") else os.path.join(base, t)
+                    for t in script.tasks]
+    return script
 
 
 def parse_script(doc: dict[str, Any], path: str = "<script>") -> Script:
-    script = Script()
-    unknown = set(doc) - {"behaviours", "at"}
+    script = Script(path=path)
+    unknown = set(doc) - {"behaviours", "at", "tasks"}
     if unknown:
         raise ScriptError(f"{path}: unknown section(s) {sorted(unknown)}: "
-                          "use [behaviours.NAME] and [[at]]")
+                          "use tasks = [...], [behaviours.NAME] and [[at]]")
+    tasks = doc.get("tasks", ["ictineu"])
+    if isinstance(tasks, str):
+        tasks = [tasks]
+    if not isinstance(tasks, list) or not tasks or not all(
+            isinstance(t, str) and t for t in tasks):
+        raise ScriptError(f"{path}: tasks: must be a list of task libraries, e.g. "
+                          "tasks = [\"ictineu\", \"seabed.tasks\"]")
+    script.tasks = list(tasks)
     for name, table in (doc.get("behaviours") or {}).items():
         where = f"{path}: behaviours.{name}"
         if not isinstance(table, dict):
@@ -82,6 +124,51 @@ def parse_script(doc: dict[str, Any], path: str = "<script>") -> Script:
             raise ScriptError(f"{where}.event: must be 'Source.name', e.g. 'Alarms.leak'")
         script.at.append((t, event, dict(item.get("data") or {})))
     return script
+
+
+def check_script(script: Script, declared: Mapping[str, Sequence[str]],
+                 builtin: Sequence[str] = ("Link", "Mission")) -> None:
+    """Every behaviour and event the script names must be declared (``declared``: behaviour
+    -> its events, from the libraries in ``script.tasks``); else ScriptError at its line."""
+    libraries = ", ".join(script.tasks)
+    for name, answers in script.answers.items():
+        line, col = _place(script.text, rf"^\s*\[\s*behaviours\.{name}\s*\]|\b{name}\b")
+        if name not in declared:
+            raise _unknown(script, line, col, f"behaviour '{name}' is not declared by this "
+                           f"vehicle's task libraries ({libraries})",
+                           f"declared behaviours: {', '.join(sorted(declared))}; declare "
+                           "more with tasks = [...]")
+        for answer in answers:
+            if answer.event not in declared[name]:
+                eline, ecol = _place(script.text, rf'"{answer.event}"', after=line)
+                raise _unknown(script, eline, ecol, f"behaviour {name} has no event "
+                               f"'{answer.event}' ({libraries})",
+                               f"its events: {', '.join(declared[name]) or 'none'}")
+    for _, event, _ in script.at:
+        source, _, name = event.partition(".")
+        if source in builtin:
+            continue
+        if source not in declared or name not in declared[source]:
+            line, col = _place(script.text, rf'"{re.escape(event)}"')
+            if source not in declared:
+                raise _unknown(script, line, col, f"event {event}: behaviour '{source}' is "
+                               f"not declared by this vehicle's task libraries ({libraries})",
+                               f"declared behaviours: {', '.join(sorted(declared))}")
+            raise _unknown(script, line, col, f"event {event}: behaviour {source} has no "
+                           f"event '{name}' ({libraries})",
+                           f"its events: {', '.join(declared[source]) or 'none'}")
+
+
+def _place(text: str, pattern: str, after: int = 0) -> tuple[int, int]:
+    """The 1-based line and column of the first match of ``pattern`` on or after line
+    ``after`` (1, 1 if none: the file itself)."""
+    for number, line in enumerate(text.splitlines(), start=1):
+        if number < after:
+            continue
+        m = re.search(pattern, line)
+        if m:
+            return number, m.start() + 1 + (len(m.group(0)) - len(m.group(0).lstrip()))
+    return 1, 1
 
 
 def _answer(item: Any, where: str) -> Answer:
@@ -110,6 +197,11 @@ class ScriptedVehicle:
     _order: int = 0
     _generation: dict[str, int] = field(default_factory=dict)
     _seq: int = 0
+    _on: set[str] = field(default_factory=set)  # behaviours enabled and not disabled
+
+    def active(self) -> list[str]:
+        """The behaviours on (enabled and not disabled since)."""
+        return sorted(self._on)
 
     def __post_init__(self) -> None:
         for t, event, data in self.script.at:
@@ -124,7 +216,10 @@ class ScriptedVehicle:
         b = action.behaviour
         # a new generation: answers scheduled by an earlier enable no longer count
         self._generation[b] = self._generation.get(b, 0) + 1
+        if action.kind == "disable":
+            self._on.discard(b)
         if action.kind == "enable":
+            self._on.add(b)
             for answer in self.script.answers.get(b, []):
                 self._push(now + answer.after, f"{b}#{self._generation[b]}", b, answer.event,
                            answer.data)
@@ -134,17 +229,16 @@ class ScriptedVehicle:
         return self._queue[0][0] if self._queue else None
 
     def due(self, t: float) -> list[EventMessage]:
-        """Events scheduled at or before t, earliest first."""
-        out = []
-        while True:
-            self._drop_stale()
-            if not self._queue or self._queue[0][0] > t + 1e-9:
-                break
-            when, _, _, event, data = heapq.heappop(self._queue)
-            source, name = event.split(".")
-            out.append(EventMessage(self._seq, when, source, name, data))
-            self._seq += 1
-        return out
+        """The earliest event scheduled at or before t, if any: one at a time, so that an
+        action the player sends on receiving it (a disable, a new enable) is applied before
+        the next one is judged stale or not."""
+        self._drop_stale()
+        if not self._queue or self._queue[0][0] > t + 1e-9:
+            return []
+        when, _, _, event, data = heapq.heappop(self._queue)
+        source, name = event.split(".")
+        self._seq += 1
+        return [EventMessage(self._seq - 1, when, source, name, data)]
 
     def _drop_stale(self) -> None:
         while self._queue:

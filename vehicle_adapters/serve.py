@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import queue
 import signal
 import sys
@@ -45,9 +46,18 @@ import zenoh
 from vehicle.stack import DT, IctineuStack, StackConfig, fault_argument
 
 from .aal import ActionMessage, InvalidMessage
-from . import zenoh_security
+from . import capabilities, zenoh_security
 from .zenoh_security import Security
-from .zenoh_link import DEFAULT_ENDPOINT, LEASE_MS, close_session, keys, payload_text, zenoh_config
+from .zenoh_link import (
+    DEFAULT_ENDPOINT,
+    LEASE_MS,
+    close_session,
+    keys,
+    option_error,
+    payload_text,
+    zenoh_config,
+    zenoh_error,
+)
 
 log = logging.getLogger(__name__)
 
@@ -74,6 +84,8 @@ class VehicleServer:
         self.keys = keys(vehicle_name)
         self.speed = float(speed)
         self.stack = IctineuStack(StackConfig(seed=seed, faults=list(faults)))
+        self.declaration = capabilities.simulated(f"{vehicle_name} (mcl vehicle --zenoh "
+                                                  f"{endpoint})", list(self.stack.behaviours))
         self.stop = stop or threading.Event()
         self.player_timeout = player_timeout
         self.wait_for_player = wait_for_player
@@ -135,6 +147,12 @@ class VehicleServer:
                 self._player_gone_at = time.monotonic()
                 log.warning("player's token went away")
 
+    def _on_capabilities(self, query: zenoh.Query) -> None:
+        """What this vehicle can do: the Ictineu stack's declaration (the task library's)."""
+        d = self.declaration
+        query.reply(self.keys["capabilities"], json.dumps(
+            {"vehicle": d.vehicle, "source": d.source, "text": d.text}))
+
     # -- the loop -------------------------------------------------------------------------------
     def run(self) -> None:
         k = self.keys
@@ -158,6 +176,7 @@ class VehicleServer:
                 session.declare_subscriber(k["action"], self._on_action),
                 session.liveliness().declare_subscriber(f"{k['alive_player']}/*",
                                                         self._on_player, history=True),
+                session.declare_queryable(k["capabilities"], self._on_capabilities),
                 session.liveliness().declare_token(k["alive_vehicle"]),  # last: all is ready
             ]
             self.ready.set()
@@ -300,6 +319,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         security = zenoh_security.from_args(args, "vehicle")
     except ValueError as exc:
         p.error(str(exc))
+    problem = _check_options(args)
+    if problem:
+        print(problem, file=sys.stderr)
+        return 2
     logging.basicConfig(level=args.log_level.upper(),
                         format="%(asctime)s vehicle %(levelname)s %(message)s")
     stop = threading.Event()
@@ -309,15 +332,38 @@ def main(argv: Sequence[str] | None = None) -> int:
     server = VehicleServer(args.zenoh, args.name, args.speed, args.seed, args.inject, stop,
                            args.player_timeout, wait_for_player=not args.no_wait, ready=ready,
                            security=security, scouting=args.scouting)
-    announcer = threading.Thread(target=lambda: ready.wait() and print(
-        f"vehicle {args.name} ready on {args.zenoh}", flush=True), daemon=True)
+    def announce() -> None:
+        if ready.wait():
+            try:
+                print(f"vehicle {args.name} ready on {args.zenoh}", flush=True)
+            except (OSError, ValueError):  # standard output closed: keep serving
+                pass
+
+    announcer = threading.Thread(target=announce, daemon=True)
     announcer.start()
     try:
         server.run()
     except zenoh.ZError as exc:
-        print(f"mcl vehicle: error: {exc}", file=sys.stderr)
+        print(f"--zenoh {args.zenoh}: error: {zenoh_error(exc)}", file=sys.stderr)
         return 2
+    on = sorted(b.name for b in server.stack.behaviours.values() if b.active)
+    print(f"vehicle {args.name} stopped after {server.stack.t:.1f} s of simulated time "
+          f"({server.actions} actions, {server.stale} stale)\n"
+          f"  behaviours on at exit: {', '.join(on) or 'none'}", flush=True)
     return 0
+
+
+def _check_options(args: argparse.Namespace) -> str | None:
+    """An option that parses but means nothing: one line naming it (exit 2), else None."""
+    if problem := option_error(args.zenoh, args.name):
+        return problem
+    for option, value in (("--speed", args.speed), ("--player-timeout", args.player_timeout)):
+        if not (math.isfinite(value) and value > 0):
+            return f"{option} {value:g}: error: must be a positive number"
+    if args.log_level.upper() not in ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL"):
+        return (f"--log-level {args.log_level}: error: use DEBUG, INFO, WARNING, ERROR or "
+                "CRITICAL")
+    return None
 
 
 if __name__ == "__main__":

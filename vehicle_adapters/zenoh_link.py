@@ -8,6 +8,8 @@ Key layout (``<v>`` is the vehicle's name)::
     mcl/<v>/telemetry/<stream>    vehicle -> all, navigator, wall, behaviours (JSON, droppable)
     mcl/<v>/mission/status        player -> all, the mission's status (petri/status.py), and a
                                   queryable answering with the latest one (late monitors)
+    mcl/<v>/capabilities          vehicle queryable: what it can do, {"vehicle", "source", "text"}
+                                  with ``text`` the task library's behaviour statements
     mcl/<v>/alive/vehicle         liveliness token of the vehicle
     mcl/<v>/alive/player/<run>    liveliness token of the player; <run> is its session id,
                                   also carried in every action's "run" field
@@ -35,15 +37,18 @@ timers and time limits still end the run.
 from __future__ import annotations
 
 import dataclasses
+import ipaddress
 import json
 import logging
+import os
+import re
 import threading
 import time
 from typing import Any
 
 import zenoh
 
-from .aal import ActionMessage, EventMessage, InvalidMessage
+from .aal import ActionMessage, Declaration, EventMessage, InvalidMessage
 from .link import MAX_POLL, RemoteVehicle
 from .zenoh_security import Security
 from .zenoh_security import apply as apply_security
@@ -52,9 +57,79 @@ log = logging.getLogger(__name__)
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 LEASE_MS = 1000  # transport lease: a silent peer is declared gone after this long
+try:  # $MCL_ZENOH_LEASE_MS: a longer lease for a slow or busy link (the tests on a loaded machine)
+    LEASE_MS = max(LEASE_MS, int(os.environ.get("MCL_ZENOH_LEASE_MS", LEASE_MS)))
+except ValueError:
+    pass
 MAX_EXTRAPOLATION = 0.25  # wall s: how far the player's clock runs past the last clock message
 CLOSE_TIMEOUT = 1.0  # wall s: the longest wait for a session to close
 CLIENT_CONNECT_MS = 2000  # a client (mcl monitor) gives up opening after this long
+
+
+PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws", "unixsock-stream")  # Zenoh's link protocols
+_HOST = re.compile(r"[A-Za-z0-9]([A-Za-z0-9-]{0,62}[A-Za-z0-9])?(\.[A-Za-z0-9]([A-Za-z0-9-]{0,62}"
+                   r"[A-Za-z0-9])?)*")
+
+
+def check_endpoint(endpoint: str) -> str:
+    """A Zenoh endpoint, ``PROTOCOL/HOST:PORT`` (``unixsock-stream/PATH``), checked before
+    Zenoh sees it: ValueError saying what is wrong. Zenoh's own metadata (``?...``) and
+    configuration (``#...``) suffixes are passed on unchecked."""
+    protocol, slash, rest = endpoint.partition("/")
+    address = re.split(r"[?#]", rest, maxsplit=1)[0]
+    if not slash or not protocol or not address:
+        raise ValueError(f"not an endpoint: write PROTOCOL/HOST:PORT, e.g. {DEFAULT_ENDPOINT}")
+    if protocol not in PROTOCOLS:
+        raise ValueError(f"unknown protocol {protocol!r}: use one of {', '.join(PROTOCOLS)}")
+    if protocol == "unixsock-stream":
+        return endpoint
+    host, colon, port = address.rpartition(":")
+    if not colon:
+        raise ValueError(f"{address!r} has no port: write HOST:PORT, e.g. 127.0.0.1:7447")
+    if not host:
+        raise ValueError(f"{address!r} has no host: write HOST:PORT, e.g. 127.0.0.1:7447")
+    if not port.isdigit() or not 1 <= int(port) <= 65535:
+        raise ValueError(f"port {port!r}: a number from 1 to 65535 (0, any free port, "
+                         "cannot be told to the other side)")
+    bare = host[1:-1] if host.startswith("[") and host.endswith("]") else host
+    try:
+        ipaddress.ip_address(bare)
+        if ":" in bare and bare == host:
+            raise ValueError(f"host {host!r}: write an IPv6 address in brackets, [{host}]")
+    except ValueError as exc:
+        if "brackets" in str(exc):
+            raise
+        if bare != host or not _HOST.fullmatch(host) or len(host) > 253:
+            raise ValueError(f"host {host!r}: an IP address ([::1] for IPv6) or a host "
+                             "name") from None
+    return endpoint
+
+
+def check_name(name: str) -> str:
+    """A vehicle's name, one chunk of a Zenoh key (``mcl/<name>/...``)."""
+    if not re.fullmatch(r"[A-Za-z0-9_.-]{1,64}", name):
+        raise ValueError("a vehicle's name is 1 to 64 letters, digits, '_', '.' or '-'")
+    return name
+
+
+def option_error(endpoint: str, name: str) -> str | None:
+    """``--zenoh`` and ``--name`` as a command takes them: one line naming the bad option
+    (exit 2 for the command), else None."""
+    try:
+        check_endpoint(endpoint)
+    except ValueError as exc:
+        return f"--zenoh {endpoint}: error: {exc}"
+    try:
+        check_name(name)
+    except ValueError as exc:
+        return f"--name {name}: error: {exc}"
+    return None
+
+
+def zenoh_error(exc: BaseException) -> str:
+    """Zenoh's message without the source paths of the machine that built it."""
+    text = re.sub(r" at /\S+?\.rs:\d+\.?", "", str(exc))
+    return text.replace("Json5Err(Message { msg: ", "").strip()
 
 
 def keys(vehicle: str) -> dict[str, str]:
@@ -63,6 +138,7 @@ def keys(vehicle: str) -> dict[str, str]:
     return {"action": f"{base}/aal/action", "event": f"{base}/aal/event",
             "clock": f"{base}/telemetry/clock", "telemetry": f"{base}/telemetry",
             "status": f"{base}/mission/status", "alive_vehicle": f"{base}/alive/vehicle",
+            "capabilities": f"{base}/capabilities",
             "alive_player": f"{base}/alive/player", "alive": f"{base}/alive"}
 
 
@@ -156,6 +232,11 @@ class ZenohVehicle(RemoteVehicle):
         self.run = ""  # this run's id: the session's Zenoh id
         self._declared: list[Any] = []
         self._status: bytes | None = None  # the latest mission status (JSON)
+        self._declaration: Declaration | None = None
+        self._asked = False
+        self._active: list[str] | None = None  # the vehicle's behaviours on, per telemetry
+        self._active_t = -1.0  # the vehicle time of that telemetry
+        self._sent_t = 0.0  # vehicle time when the last action was sent
 
     # -- context manager ----------------------------------------------------------------------
     def __enter__(self) -> ZenohVehicle:
@@ -247,9 +328,14 @@ class ZenohVehicle(RemoteVehicle):
         """The vehicle says whose actions it takes: this run's (taken), or, once taken,
         another's — a second player took the vehicle, whose events are not ours any more."""
         try:
-            run = json.loads(payload_text(sample)).get("run")
+            d = json.loads(payload_text(sample))
+            run = d.get("run")
         except (ValueError, AttributeError):
             return
+        if run == self.run and isinstance(d.get("active"), list):
+            with self._lock:
+                self._active = [str(b) for b in d["active"]]
+                self._active_t = float(d.get("t", 0.0))
         if run == self.run:
             self._taken.set()
         elif self._taken.is_set() and run:
@@ -286,3 +372,44 @@ class ZenohVehicle(RemoteVehicle):
             return
         self._publisher.put(dataclasses.replace(action, run=self.run).to_json())
         self.sent += 1
+        with self._lock:
+            self._sent_t = self._vehicle_time_locked()
+
+    def declaration(self) -> Declaration | None:
+        """What the vehicle says it can do (asked once, at most ``connect_timeout`` s; None
+        before connecting, after ``Link.lost``, or if it does not say)."""
+        if self.session is None or self._lost:
+            return None
+        if not self._asked:
+            self._asked = True
+            try:
+                for reply in self.session.get(self.keys["capabilities"],
+                                              timeout=self.connect_timeout):
+                    if reply.ok is None:
+                        continue
+                    d = json.loads(reply.ok.payload.to_bytes())
+                    self._declaration = Declaration(
+                        str(d["vehicle"]), f"{d['source']} (said by {self.keys['capabilities']})",
+                        str(d["text"]))
+                    break
+            except (zenoh.ZError, ValueError, KeyError, TypeError) as exc:
+                log.warning("the vehicle's capabilities could not be read: %s", exc)
+        return self._declaration
+
+    def confirm_off(self, names: list[str], timeout: float) -> str:
+        """Wait (at most ``timeout`` wall s) for the vehicle's telemetry, sent after the last
+        action, to show no behaviour on."""
+        if self._lost:
+            return f"not confirmed: the link is lost ({self.lost_reason})"
+        end = time.monotonic() + timeout
+        while True:
+            with self._lock:
+                active, fresh = self._active, self._active_t >= self._sent_t
+            if fresh and active == []:
+                return "confirmed by the vehicle's telemetry: no behaviour on"
+            if time.monotonic() >= end:
+                break
+            time.sleep(0.02)
+        if not fresh or active is None:
+            return f"NOT confirmed: no telemetry from the vehicle within {timeout:g} s"
+        return f"NOT confirmed: the vehicle still reports {', '.join(active)} on"

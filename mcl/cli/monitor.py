@@ -17,6 +17,7 @@ invalid options, 3 when ``--timeout`` ran out first.
 from __future__ import annotations
 
 import argparse
+import math
 import json
 import signal
 import sys
@@ -100,7 +101,7 @@ class View:
             done, total = int(st.get("done", 0)), int(st.get("total", 0))
             t = mission_time(st, clock)
             lines.append(f"mission {st.get('mission', '?')}  {str(st.get('status')).upper()}"
-                         f"  t = {t:.1f} s  ({st.get('fired', 0)} firings)")
+                         f"  t = {t:.1f} s{_beside(st, t)}  ({st.get('fired', 0)} firings)")
             lines.append(f"  {bar(done, total, 30)} {done}/{total} tasks done")
             running = st.get("running") or []
             lines.append("  running: " + (", ".join(
@@ -138,7 +139,8 @@ class View:
         if st is None:
             return f"{vstate}; no mission yet"
         running = ", ".join(r["task"] for r in st.get("running") or []) or "—"
-        return (f"{st.get('t', 0):8.1f} s  {st.get('mission', '?')} "
+        return (f"{st.get('t', 0):8.1f} s{_beside(st, float(st.get('t', 0)))}  "
+                f"{st.get('mission', '?')} "
                 f"{str(st.get('status')).upper()}  {st.get('done', 0)}/{st.get('total', 0)} "
                 f"tasks done  running: {running}  ({vstate})")
 
@@ -150,6 +152,15 @@ def mission_time(status: dict[str, Any], clock: dict[str, Any]) -> float:
     if status.get("status") == "running" and clock and "clock" in status:
         t += max(0.0, float(clock.get("t", 0)) - float(status["clock"]))
     return t
+
+
+def _beside(status: dict[str, Any], t: float) -> str:
+    """The vehicle's clock at mission time ``t``, when it differs from mission time."""
+    try:
+        offset = float(status.get("clock", status.get("t", 0))) - float(status.get("t", 0))
+    except (TypeError, ValueError):
+        return ""
+    return f" (vehicle {t + offset:.1f} s)" if abs(offset) >= 0.05 else ""
 
 
 def bar(done: int, total: int, width: int) -> str:
@@ -198,6 +209,8 @@ def _open(zenoh: Any, config: Any, endpoint: str, timeout: float | None,
           stop: threading.Event) -> Any:
     """Open the client session, retrying while the vehicle is not there yet (bounded by
     ``timeout`` and ``stop``); None if it never came."""
+    from vehicle_adapters.zenoh_link import zenoh_error
+
     deadline = time.monotonic() + timeout if timeout else None
     said = False
     while not stop.is_set():
@@ -205,7 +218,8 @@ def _open(zenoh: Any, config: Any, endpoint: str, timeout: float | None,
             return zenoh.open(config)
         except zenoh.ZError as exc:
             if not said:
-                print(f"mcl monitor: waiting for the vehicle at {endpoint} ({exc})",
+                print(f"mcl monitor: waiting for the vehicle at {endpoint} "
+                      f"({zenoh_error(exc)})",
                       file=sys.stderr, flush=True)
                 said = True
         if deadline is not None and time.monotonic() >= deadline:
@@ -214,6 +228,14 @@ def _open(zenoh: Any, config: Any, endpoint: str, timeout: float | None,
             return None
         stop.wait(0.5)
     return None
+
+
+def _check_options(args: argparse.Namespace) -> str | None:
+    from vehicle_adapters.zenoh_link import option_error
+
+    if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
+        return f"--timeout {args.timeout:g}: error: must be a positive number of seconds"
+    return option_error(args.zenoh, args.name)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -240,8 +262,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         security = zenoh_security.from_args(args, "observer")
     except ValueError as exc:
         p.error(str(exc))
-    if args.timeout is not None and not args.timeout > 0:
-        p.error("--timeout must be positive")
+    problem = _check_options(args)
+    if problem:  # one line naming the option
+        print(problem, file=sys.stderr)
+        return 2
     import zenoh
 
     from vehicle_adapters.zenoh_link import close_session, keys, payload_text, zenoh_config
