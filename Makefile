@@ -5,47 +5,60 @@
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
-STAMP  := $(VENV)/.installed-stamp
+PIP_INSTALL := $(BIN)/python -m pip --disable-pip-version-check --quiet install --no-compile
+# Two installs, two stamps: the runtime (what `make demo` needs), then the test and development
+# extras on top of it (what `make test`, `make check` and `make bench` need). --no-compile:
+# modules are byte-compiled when first imported, not all (pymavlink alone is 93 MB) up front.
+RUNTIME := $(VENV)/.installed-runtime
+EXTRAS  := $(VENV)/.installed-extras
 
-.PHONY: demo test check bench clean install
+.PHONY: demo test check bench clean install install-all
 
-install: $(STAMP)
+install: $(RUNTIME)
+install-all: $(EXTRAS)
 
-$(STAMP): pyproject.toml
-	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,dev]'
-	touch $(STAMP)
+$(RUNTIME): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(PIP_INSTALL) -e .
+	touch $(RUNTIME)
 
-demo: $(STAMP)
+$(EXTRAS): $(RUNTIME)
+	$(PIP_INSTALL) -e '.[test,dev,large]'
+	touch $(EXTRAS)
+
+demo: $(RUNTIME)
 	@mkdir -p out
 	$(BIN)/mclc missions/dam_inspection.mcl --dot out/dam_inspection.dot \
 	    --dot-tasks out/dam_inspection.tasks.dot --pnml out/dam_inspection.pnml
 	@echo
-	@echo "== The dam mission on the simulated Ictineu (simulated time):"
+	@echo "== The dam mission on the simulated Ictineu (simulated time), ending with the photomosaic:"
 	$(BIN)/mcl run missions/dam_inspection.mcl --log out/dam_inspection.jsonl --quiet
 	@echo
 	@echo "== Again, with a water leak 10 minutes in: the CATCH runs and the vehicle surfaces:"
-	$(BIN)/mcl run missions/dam_inspection.mcl --inject leak@600 --log out/dam_leak.jsonl
+	$(BIN)/mcl run missions/dam_inspection.mcl --inject leak@600 --log out/dam_leak.jsonl --no-images
 	$(BIN)/mcl replay out/dam_leak.jsonl missions/dam_inspection.mcl
 	@echo
 	@echo "== Every mission in missions/:"
 	$(BIN)/mclc missions/*.mcl | grep -E '^(missions|  (verified|NOT))'
 	@echo
-	@echo "Written to out/: run logs (*.jsonl), trajectory plots (*.svg), the nets (*.dot, *.pnml)"
+	@echo "Written to out/: run logs (*.jsonl), trajectory plots (*.svg), the mosaic and coverage map (*.mosaic.png, *.coverage.png), the nets (*.dot, *.pnml)"
 
-test: $(STAMP)
+test: $(EXTRAS)
 	$(BIN)/python -m pytest -q
 
-check: $(STAMP)
-	$(BIN)/ruff check mcl petri behaviours vehicle vehicle_adapters tests bench
-	$(BIN)/mypy mcl petri behaviours vehicle vehicle_adapters
+check: $(EXTRAS)
+	$(BIN)/ruff check mcl petri behaviours vehicle vehicle_adapters mosaic tests bench
+	$(BIN)/mypy mcl petri behaviours vehicle vehicle_adapters mosaic
 
-bench: $(STAMP)
+bench: $(EXTRAS)
 	$(BIN)/python bench/bench_verifier.py
+	$(BIN)/python bench/bench_scale.py
+	$(BIN)/python bench/bench_timed.py
 	$(BIN)/python bench/bench_missions.py
 	$(BIN)/python bench/bench_player.py
 	$(BIN)/python bench/bench_vehicle.py
+	$(BIN)/python bench/bench_mosaic.py
+	$(BIN)/python bench/bench_trackers.py
 	$(BIN)/python bench/bench_zenoh.py
 	$(BIN)/python bench/bench_mavlink.py
 

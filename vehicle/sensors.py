@@ -135,6 +135,7 @@ class CameraImage:
     t: float
     index: int
     footprint: WallFootprint | None  # None: the wall is not (entirely) within visibility
+    pose: tuple[float, float, float, float] | None = None  # true x, y, z, yaw (the rendering's)
 
 
 @dataclass(frozen=True, slots=True)
@@ -383,7 +384,8 @@ class Camera:
         if not self.on or not self.schedule.due(t):
             return None
         self.images += 1
-        return CameraImage(t, self.images - 1, self.footprint(truth))
+        return CameraImage(t, self.images - 1, self.footprint(truth),
+                           (truth.x, truth.y, truth.z, truth.psi))
 
 
 # --- the pressure vessels' internal sensors ---------------------------------------------------

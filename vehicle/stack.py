@@ -21,12 +21,13 @@ from typing import Any
 import numpy as np
 
 import behaviours as bh
+from behaviours.seabed import SEABED
 from vehicle_adapters.aal import ActionMessage, EventMessage
 
 from .controller import VelocityController
 from .coordinator import Coordinator
 from .navigator import Navigator
-from .robot import Environment, Ictineu, VehicleState, wrap_angle
+from .robot import AREA, Environment, Ictineu, VehicleState, wrap_angle
 from .sensors import (
     CameraImage,
     DepthReading,
@@ -37,11 +38,12 @@ from .sensors import (
     SonarBeam,
     UsblFix,
 )
+from .seabed_vision import SeabedVision
 from .survey import Survey
 from .wall import WallDetector, WallTracker
 
 DT = 0.05  # s, the robot's integration step and the control period
-FAULTS = ("leak", "overtemperature", "overpressure")
+FAULTS = ("leak", "overtemperature", "overpressure", "burial")  # burial: docs/SEABED.md
 
 
 def parse_fault(text: str) -> tuple[str, float]:
@@ -73,6 +75,7 @@ class StackConfig:
     current: tuple[float, float, float] = (0.0, 0.02, 0.0)  # m/s, world frame
     wall_curvature: float = 0.0
     floor_depth: float = 12.0
+    area: tuple[float, float, float, float] = AREA  # m: x_min, x_max, y_min, y_max (banks)
     faults: list[tuple[str, float]] = field(default_factory=list)  # (kind, mission time)
 
 
@@ -87,14 +90,18 @@ class IctineuStack:
         rng = np.random.default_rng(cfg.seed)
         robot_rng, sensor_rng, nav_rng = rng.spawn(3)
         self.env = Environment(wall_curvature=cfg.wall_curvature, floor_depth=cfg.floor_depth,
-                               current=cfg.current)
+                               current=cfg.current, area=cfg.area)
         x, y, z, yaw = cfg.start
         self.robot = Ictineu(VehicleState(x, y, z, yaw, 0.0, 0.0, 0.0, 0.0), rng=robot_rng,
                              env=self.env)
         self.sensors = Sensors(self.env, sensor_rng)
+        self.seabed = SeabedVision(seed=cfg.seed)  # the downward camera and line trackers
         for kind, at in cfg.faults:
             if kind not in FAULTS:
                 raise ValueError(f"unknown fault {kind!r}: one of {', '.join(FAULTS)}")
+            if kind == "burial":
+                self.seabed.bury(at)
+                continue
             self.sensors.housings[-1].inject(kind, at)  # type: ignore[arg-type]
         # the navigator starts from a noisy first fix (§4.2)
         first = np.array([x, y, z]) + nav_rng.normal(0.0, 0.3, 3)
@@ -103,15 +110,19 @@ class IctineuStack:
         self.nav_t = 0.0
         self.detector = WallDetector()
         self.tracker: WallTracker | None = None
-        self.behaviours: dict[str, bh.Behaviour] = {cls.name: cls() for cls in bh.ALL}
+        self.behaviours: dict[str, bh.Behaviour] = {cls.name: cls()
+                                                    for cls in (*bh.ALL, *SEABED)}
         self.coordinator = Coordinator()
         self.controller = VelocityController()
         self.t = 0.0
         self.housing = {"leak": False, "temperature": 20.0, "pressure": 1.0}
+        self.altitude: float | None = None  # m, the DVL's last; None without bottom lock
         self._events: list[EventMessage] = []
         self._seq = 0
         self.survey = Survey(self.env)
+        self.images: Any = None  # an ImageRecorder when the run keeps its images (mcl run)
         self.unknown_actions: list[str] = []
+        self._owners: dict[str, str] = {}  # degree of freedom -> the behaviour driving it
 
     # -- the adapter's side -------------------------------------------------------------------
     def on_action(self, action: ActionMessage, now: float) -> None:
@@ -151,6 +162,8 @@ class IctineuStack:
             self._perceive(reading)
         self._predict_to(self.t)
         p = self.perception()
+        p = self.seabed.perceive(self.t, truth, p, {n: b.active
+                                                    for n, b in self.behaviours.items()})
         responses = {}
         for b in self.behaviours.values():
             if b.active:
@@ -159,6 +172,12 @@ class IctineuStack:
                     self._events.append(EventMessage(self._seq, self.t, b.name, name, data))
                     self._seq += 1
         setpoints = self.coordinator.merge(responses)
+        owners = dict(self.coordinator.last_owner)
+        for dof in self._owners.keys() - owners.keys():
+            # freed: forget the thrust the last owner's integral built up (pressed against the
+            # floor or the wall, it would keep pushing there after the behaviour is disabled)
+            self.controller.integral[dof] = 0.0
+        self._owners = owners
         velocity = {"x": p.u, "y": p.v, "z": p.w, "yaw": p.r}
         tau = self.controller.update(setpoints, velocity, DT)
         self.robot.step(DT, (tau["x"], tau["y"], tau["z"], tau["yaw"]))
@@ -177,8 +196,12 @@ class IctineuStack:
     def _perceive(self, reading: Any) -> None:
         self._predict_to(reading.t)
         match reading:
-            case DvlReading(velocity=velocity) if velocity is not None:
-                self.navigator.update_dvl(velocity)
+            case DvlReading(velocity=velocity, altitude=altitude):
+                self.altitude = altitude if velocity is not None else None
+                if velocity is not None:
+                    self.navigator.update_dvl(velocity)
+                else:
+                    self.navigator.dvl_lost()
             case HeadingReading(heading=heading):
                 self.navigator.update_heading(heading)
                 if self.tracker is not None:
@@ -192,6 +215,8 @@ class IctineuStack:
                 self._sonar(reading)
             case CameraImage():
                 self.survey.image(reading)
+                if self.images is not None:  # vehicle.camera.ImageRecorder: render, write
+                    self.images.from_stack(self, reading)
             case HousingReading():
                 self.housing = {"leak": self.housing["leak"] or reading.leak,
                                 "temperature": reading.temperature,
@@ -221,6 +246,7 @@ class IctineuStack:
         return bh.Perception(self.t, float(n[0]), float(n[1]), float(n[2]),
                              wrap_angle(float(n[3])), float(n[4]), float(n[5]), float(n[6]),
                              float(n[7]), wall_distance=wall_d, wall_heading=wall_h,
-                             wall_normal=wall_n, leak=bool(self.housing["leak"]),
+                             wall_normal=wall_n, altitude=self.altitude, area=self.env.area,
+                             leak=bool(self.housing["leak"]),
                              temperature=float(self.housing["temperature"]),
                              pressure=float(self.housing["pressure"]))

@@ -1,0 +1,52 @@
+"""What ``mcl run`` does with the camera: keep the images, then make the mosaic.
+
+:func:`attach` gives the simulated stack an image recorder writing beside the run log
+(``RUN.images/``); :func:`report` builds the mosaic and the coverage map when the run took
+images, writes them beside the run log and says where, with the figures.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+from .images import images_folder
+
+
+def attach(stack: Any, log_path: Path) -> None:
+    """Record the stack's camera images into ``RUN.images/`` beside the run log."""
+    from vehicle.camera import ImageRecorder
+
+    cfg = getattr(stack, "config", None)
+    stack.images = ImageRecorder(images_folder(log_path), seed=getattr(cfg, "seed", 1),
+                                 wall_curvature=getattr(cfg, "wall_curvature", 0.0),
+                                 background=True)  # rendering overlaps the simulation
+
+
+def report(stack: Any, log_path: Path, say: Any) -> None:
+    """Build and write the mosaic if the run took images; one line if it could not."""
+    recorder = getattr(stack, "images", None)
+    if recorder is None or recorder.count == 0:
+        return
+    from .build import build, summary_lines, write
+
+    try:
+        recorder.flush()  # the camera's worker may still be writing the last images
+        started = time.perf_counter()
+        result = build(recorder.folder)
+        paths = write(result, log_path.with_suffix(""))
+    except (ValueError, OSError) as exc:
+        say(f"  mosaic: not made: {exc}")
+        return
+    except Exception as exc:  # a bug of the mosaic must not change how the mission ended
+        say(f"  mosaic: not made: internal error: {type(exc).__name__}: {exc} (a bug; "
+            f"'mcl mosaic {log_path}' retries it)")
+        return
+    say(f"  images: {recorder.folder} ({recorder.count})")
+    for line in summary_lines(result, paths):
+        say("  " + line)
+    took = time.perf_counter() - started
+    if took > 60:
+        say(f"  (making and measuring the mosaic took {took:.0f} s, over a minute; "
+            f"'mcl mosaic {log_path}' remakes it)")

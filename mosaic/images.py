@@ -1,0 +1,116 @@
+"""A run's images and the navigation data of each (what vehicle.camera.ImageRecorder wrote).
+
+A folder holds ``camera.json`` (intrinsics, the wall plane, the texture's seed and scale, the
+planned survey path), ``index.csv`` (one line per image) and the PNG images. :func:`find`
+accepts the folder or the run log beside it (``RUN.jsonl`` -> ``RUN.images/``).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from .projection import Intrinsics, pose_from_world
+
+Image = npt.NDArray[np.uint8]
+
+
+class SurveyError(Exception):
+    """A folder that is not a run's images, with what to do instead."""
+
+
+@dataclass(frozen=True)
+class Frame:
+    index: int
+    t: float
+    file: str
+    truth: tuple[float, float, float, float] | None  # camera pose (y, z, d, yaw), simulation
+    prior: tuple[float, float, float, float]  # the navigation data's camera pose
+    prior_std: tuple[float, float, float, float]
+
+
+@dataclass
+class Survey:
+    folder: Path
+    k: Intrinsics
+    frames: list[Frame]
+    wall_x: float = 0.0
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def load(self, frame: Frame) -> Image | None:
+        import cv2
+
+        img = cv2.imread(str(self.folder / frame.file), cv2.IMREAD_COLOR)
+        return None if img is None else np.asarray(img, dtype=np.uint8)
+
+    def plan(self) -> list[tuple[float, float]]:
+        return [(float(p[0]), float(p[1])) for p in self.meta.get("plan") or []]
+
+
+def images_folder(log: Path) -> Path:
+    """Where a run log's images go: ``RUN.jsonl`` -> ``RUN.images``."""
+    return log.with_suffix(".images")
+
+
+def find(path: str | Path) -> Path:
+    """The images folder of a run log, or the folder itself."""
+    p = Path(path)
+    if p.is_dir():
+        return p
+    folder = images_folder(p)
+    if folder.is_dir():
+        return folder
+    if not p.exists():
+        raise SurveyError(f"{p}: no such run log or folder")
+    raise SurveyError(f"{p}: no images beside this run log (expected the folder {folder})")
+
+
+def _f(row: dict[str, str], key: str) -> float:
+    v = row.get(key, "")
+    return float(v) if v not in ("", None) else math.nan
+
+
+def read(path: str | Path) -> Survey:
+    """Read a run's images folder (or the run log beside it); SurveyError if it is not one."""
+    folder = find(path)
+    meta_path, index_path = folder / "camera.json", folder / "index.csv"
+    if not meta_path.exists() or not index_path.exists():
+        raise SurveyError(f"{folder}: not a run's images (camera.json and index.csv missing)")
+    try:
+        meta = json.loads(meta_path.read_text(encoding="utf-8"))
+        k = Intrinsics.from_dict(meta["intrinsics"])
+        wall_x = float(meta.get("wall", {}).get("x", 0.0))
+    except (ValueError, KeyError, TypeError) as exc:
+        raise SurveyError(f"{meta_path}: unreadable camera description ({exc})") from None
+    frames = []
+    with index_path.open(newline="", encoding="utf-8") as f:
+        for line, row in enumerate(csv.DictReader(f), start=2):
+            try:
+                truth = None
+                if row.get("x"):
+                    truth = pose_from_world(_f(row, "x"), _f(row, "y"), _f(row, "z"),
+                                            _f(row, "psi"), wall_x)
+                nx, ny, nz, npsi = (_f(row, k_) for k_ in ("nav_x", "nav_y", "nav_z",
+                                                           "nav_psi"))
+                d, dstd = _f(row, "wall_distance"), _f(row, "wall_distance_std")
+                head, hstd = _f(row, "wall_heading"), _f(row, "wall_heading_std")
+                if not math.isfinite(d):  # no wall tracker: the navigator's x
+                    d, dstd = wall_x - nx, _f(row, "nav_std_x")
+                if not math.isfinite(head):
+                    head, hstd = npsi, _f(row, "nav_std_psi")
+                prior = (ny, nz, d, math.remainder(head, 2 * math.pi))
+                std = (_f(row, "nav_std_y"), _f(row, "nav_std_z"), dstd, hstd)
+                if not all(math.isfinite(v) for v in prior + std):
+                    raise ValueError("missing navigation data")
+                frames.append(Frame(int(row["index"]), _f(row, "t"), row["file"], truth,
+                                    prior, tuple(max(s, 1e-4) for s in std)))  # type: ignore[arg-type]
+            except (ValueError, KeyError, TypeError) as exc:
+                raise SurveyError(f"{index_path}:{line}: error: bad index line ({exc})") from None
+    return Survey(folder, k, frames, wall_x, meta)
