@@ -77,6 +77,20 @@ class ActionSpec:
 
 
 @dataclass(frozen=True)
+class Estimate:
+    """``estimate:`` of a task (docs/DURATION.md): a nominal duration, never a proof.
+    ``measure`` is "time" (``value`` is the duration), "distance" (from the previous point a
+    task was sent to, to the point parameter ``formal``) or "length" (of the path parameter
+    ``formal``); the last two are divided by ``speed`` (m/s)."""
+
+    measure: str
+    value: Expr | None = None
+    formal: str = ""
+    speed: float = 0.0
+    span: Span = field(default=Span("<none>", 0, 0), compare=False)
+
+
+@dataclass(frozen=True)
 class TaskForm:
     """One call form of a task, e.g. ``KeepHeadDist(enable, heading, distance)``."""
 
@@ -90,6 +104,7 @@ class TaskForm:
     latch: str | None = None
     unlatch: str | None = None
     span: Span = field(default=Span("<none>", 0, 0), compare=False)
+    estimate: Estimate | None = None
 
     @property
     def immediate(self) -> bool:
@@ -111,6 +126,7 @@ class Behaviour:
     events: tuple[str, ...]
     span: Span
     dof_spans: tuple[Span, ...] = field(default=(), compare=False)  # one per dof
+    power: float | None = None  # watts drawn while on ('power N W'), None: not declared
 
 
 @dataclass
@@ -244,13 +260,21 @@ class _Builder:
                                 getattr(m, "end_line", 0), getattr(m, "end_column", 0))
 
     def behaviour(self, node: Tree[Token]) -> Behaviour:
-        name, drives, events = node.children
+        name, drives, events, power = node.children
+        watts = None
+        if isinstance(power, Tree):
+            number = power.children[0]
+            watts = float(str(number))
+            if not 0 <= watts < float("inf"):
+                raise error(self.source, f"behaviour {name}: power must be finite and >= 0 W, "
+                            f"not {number} W", self.span(power), "e.g. 'power 120 W'",
+                            code="library-power")
         tokens = [t for t in drives.children if isinstance(t, Token)] if isinstance(
             drives, Tree) else []
         evs = tuple(str(t) for t in events.children) if isinstance(events, Tree) else ()
         assert isinstance(name, Token)
         return Behaviour(str(name), tuple(str(t) for t in tokens), evs, self.span(name),
-                         tuple(self.span(t) for t in tokens))
+                         tuple(self.span(t) for t in tokens), watts)
 
     def task(self, node: Tree[Token]) -> TaskForm:
         name = node.children[0]
@@ -279,7 +303,8 @@ class _Builder:
             timeout=timeout,  # type: ignore[arg-type]
             latch=clauses.get("latch"),  # type: ignore[arg-type]
             unlatch=clauses.get("unlatch"),  # type: ignore[arg-type]
-            span=self.span(name))
+            span=self.span(name),
+            estimate=clauses.get("estimate"))  # type: ignore[arg-type]
 
     def formal(self, node: Tree[Token]) -> Formal:
         name, kind_node, range_node, default = node.children
@@ -386,7 +411,25 @@ class _Builder:
                 return (self.expr(expr), str(status))
             case "latch" | "unlatch":
                 return str(kids[0])
+            case "estimate":
+                assert isinstance(kids[0], Tree)
+                return self.estimate(kids[0])
         raise AssertionError(node.data)
+
+    def estimate(self, node: Tree[Token]) -> Estimate:
+        span = self.span(node)
+        if node.data == "estimate_time":
+            return Estimate("time", self.expr(node.children[0]), span=span)
+        measure, formal, speed = (str(t) for t in node.children)
+        if measure not in ("distance", "length"):
+            raise error(self.source, f"estimate: unknown measure '{measure}'", span,
+                        "write distance(POINT) / SPEED m/s or length(PATH) / SPEED m/s",
+                        code="library-estimate")
+        value = float(speed)
+        if not 0 < value < float("inf"):
+            raise error(self.source, f"estimate: a speed is finite and above 0 m/s, not {speed}",
+                        span, code="library-estimate")
+        return Estimate(measure, None, formal, value, span)
 
     def action(self, node: Tree[Token]) -> ActionSpec:
         kind, behaviour, *bindings = node.children
@@ -482,6 +525,27 @@ def _validate(source: Source, library: Library, form: TaskForm) -> None:
                 fail(f"timeout: {p.message}", expr.span)
         else:
             fail("a timeout is a duration or a duration parameter", form.span)
+    est = form.estimate
+    if est is not None:
+        if est.measure == "time":
+            if isinstance(est.value, ast.Ref):
+                f = formals.get(est.value.name)
+                if f is None or f.kind != "duration":
+                    fail(f"estimate '{est.value.name}' must be a duration parameter", est.span)
+            elif isinstance(est.value, ast.Number):
+                if est.value.unit is None or UNITS[est.value.unit][0] != "duration":
+                    fail("an estimate is a duration (s, min, h)", est.span)
+                for p in limits(est.value, "duration", {}):
+                    fail(f"estimate: {p.message}", est.span)
+            else:
+                fail("an estimate is a duration, a duration parameter, distance(POINT) / "
+                     "SPEED m/s or length(PATH) / SPEED m/s", est.span)
+        else:
+            want = "point" if est.measure == "distance" else "path"
+            f = formals.get(est.formal)
+            if f is None or f.kind != want:
+                fail(f"estimate: {est.measure}() takes a {want} parameter of this task, not "
+                     f"'{est.formal}'", est.span)
     for latched in (form.latch, form.unlatch):
         if latched is not None and latched not in library.behaviours:
             fail(f"latch of unknown behaviour '{latched}'", form.span)

@@ -4,6 +4,9 @@
   input itself when it is not valid MCL); a failed property carries its counterexample.
 * ``sarif``: SARIF 2.1.0, one result per error, warning and failed property, located at the
   MCL line (for a property: the source line of the counterexample's last step).
+* A deadline or battery that some run can break (``mclc --deadline/--battery``, the JSON's
+  ``duration.failures``) is a failure / error too, located at the longest step of the critical
+  path (docs/DURATION.md).
 * ``github``: GitHub Actions workflow commands (``::error file=...,line=...::``) that show as
   annotations on the mission's lines in a pull request.
 """
@@ -34,12 +37,30 @@ def _problems(report: dict[str, Any]) -> list[dict[str, Any]]:
         trace = "; ".join(f"{s['line']}:{s['col']} {s['construct']}: {s['label']}"
                           + (f" on {s['event']}" if s.get("event") else "")
                           for s in located)
-        level = "error" if p["severity"] == "error" else "warning"
+        undecided = p.get("status") == "undecided"
+        level = "error" if p["severity"] == "error" and not undecided else "warning"
         out.append({"rule": p["property"], "level": level,
-                    "message": p["message"] + (f" — shortest run: {trace}" if trace else ""),
+                    "message": ("undecided: " if undecided else "") + p["message"]
+                    + (f" — shortest run: {trace}" if trace else ""),
                     "file": last.get("file") or report["file"], "line": last.get("line") or 1,
                     "col": last.get("col") or 1})
+    out += _duration_problems(report)
     return out
+
+
+def _duration_problems(report: dict[str, Any]) -> list[dict[str, Any]]:
+    """A deadline or battery that some run can break (mclc --deadline/--battery, see
+    docs/DURATION.md): an error at the longest step of the critical path."""
+    duration = report.get("duration") or {}
+    path = duration.get("critical_path") or []
+    longest: dict[str, Any] = max(path, key=lambda s: float("inf") if s["seconds"] is None else s["seconds"],
+                  default={})
+    trace = "; ".join(f"{s['line']}: {s['task']} {s['ending']}" for s in path
+                      if s["seconds"] != 0)
+    return [{"rule": "deadline" if text.startswith("deadline") else "battery",
+             "level": "error", "message": text + (f" — critical path: {trace}" if trace else ""),
+             "file": report["file"], "line": longest.get("line") or 1,
+             "col": longest.get("col") or 1} for text in duration.get("failures", [])]
 
 
 def github(reports: list[dict[str, Any]]) -> str:
@@ -80,12 +101,26 @@ def junit(reports: list[dict[str, Any]]) -> str:
             if p["severity"] != "error":
                 ET.SubElement(case, "system-out").text = f"warning: {p['message']}"
                 continue
+            if p.get("status") == "undecided":  # neither proved nor refuted: not a pass
+                ET.SubElement(case, "skipped", message=f"undecided: {p['message']}")
+                continue
             failures += 1
             steps = p.get("counterexample") or []
             body = "\n".join(f"{i}. {s.get('file')}:{s.get('line')}:{s.get('col')} "
                              f"{s.get('construct')}: {s.get('label')}"
                              for i, s in enumerate(steps, 1))
             ET.SubElement(case, "failure", message=p["message"]).text = body
+        duration = report.get("duration") or {}
+        for key in ("deadline", "battery"):  # asked with mclc --deadline / --battery
+            if key not in duration:
+                continue
+            cases += 1
+            case = ET.SubElement(suite, "testcase", classname=report["file"], name=key)
+            for p in _duration_problems(report):
+                if p["rule"] == key:
+                    failures += 1
+                    ET.SubElement(case, "failure", message=p["message"].split(" — ")[0]
+                                  ).text = p["message"]
         suite.set("tests", str(cases))
         suite.set("failures", str(failures))
         suite.set("errors", str(errors))

@@ -1,15 +1,19 @@
 """``mclc``: compile and verify MCL missions (and verify Petri nets given as PNML).
 
-Exit status: 0 every file verified, 1 a property fails, 2 invalid input, 3 internal error.
-With several files, the worst status wins.
+Exit status: 0 every file verified, 1 a property fails, 2 invalid input, 3 internal error,
+4 undecided (nothing fails, but some property could not be established: a limit was reached
+or the method cannot decide it). With several files: 3 if any internal error, else 2, 1, 4, 0
+in that order.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import traceback
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +21,8 @@ from .. import ast
 from ..api import Compiled, compile_file, parse_params
 from ..errors import Diagnostic, MclError
 
-EXIT_OK, EXIT_PROPERTY, EXIT_INVALID, EXIT_INTERNAL = 0, 1, 2, 3
+EXIT_OK, EXIT_PROPERTY, EXIT_INVALID, EXIT_INTERNAL, EXIT_UNDECIDED = 0, 1, 2, 3, 4
+SEVERITY = [EXIT_OK, EXIT_UNDECIDED, EXIT_PROPERTY, EXIT_INVALID, EXIT_INTERNAL]  # worst last
 AUTO_LIMIT = 300_000  # estimated markings above which --method auto goes structural
 
 
@@ -48,16 +53,102 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=["auto", "explicit", "structural"], default="auto",
                    help="explicit: enumerate every reachable marking (exact, with firing "
                         "sequences); structural: templates verified with generic children plus "
-                        "static analysis (for missions too large to enumerate); auto (default): "
-                        f"explicit when the estimated state space is under {AUTO_LIMIT:,} "
-                        "markings")
+                        "outcome and static analyses of the syntax tree (for missions too large "
+                        "to enumerate); auto (default): explicit when its estimated memory fits "
+                        "1 GiB, completed by structural if the exploration is cut "
+                        "(mcl/verification.py)")
+    p.add_argument("--max-markings", type=_positive, default=5_000_000, metavar="N",
+                   help="explicit route: stop after N markings; what the cut exploration "
+                        "cannot decide is reported undecided (exit 4) (default 5,000,000)")
+    p.add_argument("--deadline", metavar="DURATION",
+                   help="fail (exit 1) if some run can last longer, e.g. 45min, 1.5h, 600s; "
+                        "prints the critical path (docs/DURATION.md)")
+    p.add_argument("--battery", metavar="WH", help="battery capacity, e.g. 800Wh: report the "
+                   "worst-case energy (power declared per behaviour) and the margin; fail "
+                   "(exit 1) if it can run out")
+    p.add_argument("--reserve", metavar="PERCENT", help="with --battery: fail (exit 1) if the "
+                   "worst case can eat into this share of the battery, e.g. 20%%")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     return p
 
 
+def _positive(text: str) -> int:
+    try:
+        value = int(text.replace("_", "").replace(",", ""))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if not 1 <= value < 2**31:
+        raise argparse.ArgumentTypeError(f"must lie between 1 and 2**31 - 1, got {value}")
+    return value
+
+
+class OutputError(Exception):
+    """An output file that cannot be written (a directory, a missing folder, no permission):
+    invalid input, reported on one line that starts with the file."""
+
+    def __init__(self, path: str, option: str, reason: str):
+        where = path or f"{option} ''"
+        super().__init__(f"{where}: error: cannot write it ({option}): {reason}\n"
+                         "  hint: give the path of a file in a folder that exists and that "
+                         "you may write to")
+
+
+def write_output(path: str, option: str, write: Callable[[str], None]) -> None:
+    """``write(path)``, turning every way writing can fail into an :class:`OutputError`."""
+    check_output(path, option)
+    try:
+        write(path)
+    except OSError as exc:
+        raise OutputError(path, option, exc.strerror or str(exc)) from None
+
+
+def check_output(path: str, option: str) -> None:
+    """Refuse, before any work, an output path that cannot be a file: empty, a directory, in
+    a folder that does not exist or is not a folder."""
+    if not path:
+        raise OutputError(path, option, "an empty path")
+    target = Path(path)
+    if target.is_dir():
+        raise OutputError(path, option, "is a directory")
+    folder = target.parent
+    if not folder.exists():
+        raise OutputError(path, option, f"no folder {str(folder)!r}")
+    if not folder.is_dir():
+        raise OutputError(path, option, f"{str(folder)!r} is not a folder")
+
+
+def stdout_closed() -> None:
+    """Standard output was closed (``mclc ... | head -1``): point it at the null device, so
+    that nothing more is written and the flush at exit is silent (Python's docs, "Note on
+    SIGPIPE")."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (AttributeError, OSError, ValueError):  # not a real file (tests capture it)
+        sys.stdout = open(os.devnull, "w", encoding="utf-8")  # noqa: SIM115
+
+
 def main(argv: list[str] | None = None) -> int:
+    """The command; a closed standard output ends it quietly with the status so far."""
+    worst = [EXIT_OK]
+    try:
+        return _main(argv, worst)
+    except BrokenPipeError:
+        stdout_closed()
+        return worst[0]
+
+
+def _main(argv: list[str] | None, so_far: list[int]) -> int:
     args = _parser().parse_args(argv)
     fmt = "json" if args.json else (args.format or "text")
+    from ..duration import parse_limits
+
+    try:
+        args.limits = parse_limits(args.deadline, args.battery, args.reserve)
+    except ValueError as exc:
+        print(f"mclc: error: {exc}", file=sys.stderr)
+        return EXIT_INVALID
     outputs = [args.dot, args.dot_tasks, args.pnml, args.net_json]
     if len(args.files) > 1 and any(outputs):
         print("mclc: error: --dot, --dot-tasks, --pnml and --net-json take one input file",
@@ -71,6 +162,12 @@ def main(argv: list[str] | None = None) -> int:
         except MclError as exc:
             status, report = EXIT_INVALID, _invalid(path, exc.diagnostics)
             print(exc.format(), file=sys.stderr)
+        except OutputError as exc:
+            status, report = EXIT_INVALID, {"file": path, "status": "invalid",
+                                            "message": str(exc).splitlines()[0]}
+            print(exc, file=sys.stderr)
+        except BrokenPipeError:
+            raise
         except Exception as exc:  # a bug of ours: say so plainly, never a bare traceback
             if args.debug:
                 traceback.print_exc()
@@ -80,7 +177,8 @@ def main(argv: list[str] | None = None) -> int:
             status, report = EXIT_INTERNAL, {"file": path, "status": "internal-error",
                                              "message": str(exc)}
         reports.append(report)
-        worst = max(worst, status)
+        worst = max(worst, status, key=SEVERITY.index)
+        so_far[0] = worst
     if fmt == "json":
         print(json.dumps(reports[0] if len(reports) == 1 else reports, indent=2))
     elif fmt in ("junit", "sarif", "github"):
@@ -114,40 +212,61 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, 
     report = _summary(compiled)
     status = EXIT_OK
     if not args.no_verify:
-        verdict = _verify(compiled, args.method)
+        verdict = _verify(compiled, args.method, args.max_markings)
         report["verification"] = verdict.to_json()
-        status = EXIT_OK if verdict.ok else EXIT_PROPERTY
-        report["status"] = "verified" if verdict.ok else "property-fails"
+        status = (EXIT_OK if verdict.ok else EXIT_PROPERTY if verdict.failed
+                  else EXIT_UNDECIDED)
+        report["status"] = ("verified" if verdict.ok else "property-fails" if verdict.failed
+                            else "undecided")
+    from ..duration import check as check_durations
+
+    bounds = check_durations(compiled.checked, args.limits)
+    report["duration"] = bounds.report
+    if bounds.failures:
+        status = max(status, EXIT_PROPERTY, key=SEVERITY.index)
+        report["status"] = "property-fails"
     if fmt == "text":
         _print_text(compiled, report, args)
+        if args.limits.asked:
+            print("\n".join([f"  FAIL {f}" for f in bounds.failures] + bounds.lines))
     return status, report
 
 
-def _verify(compiled: Compiled, method: str) -> Any:
-    from petri.verify import verify
+def _verify(compiled: Compiled, method: str, max_markings: int = 5_000_000) -> Any:
+    from ..verification import verify_mission
 
-    from ..structural import analyse, mission_estimate
-
-    if method == "structural" or (
-            method == "auto" and mission_estimate(compiled.checked) > AUTO_LIMIT):
-        return analyse(compiled.checked)
-    return verify(compiled.net)
+    return verify_mission(compiled, method, max_markings=max_markings)
 
 
 def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:
     from petri.dot import to_dot
 
     net = compiled.net
-    if args.dot:
-        Path(args.dot).write_text(to_dot(net, "full"), encoding="utf-8")
-    if args.dot_tasks:
-        Path(args.dot_tasks).write_text(to_dot(net, "tasks"), encoding="utf-8")
-    if args.pnml:
-        from petri.pnml import write_pnml
 
-        write_pnml(net, args.pnml)
-    if args.net_json:
-        Path(args.net_json).write_text(json.dumps(net.to_dict(), indent=1), encoding="utf-8")
+    def text(content: Callable[[], str]) -> Callable[[str], None]:
+        def write(path: str) -> None:
+            Path(path).write_text(content(), encoding="utf-8")
+        return write
+
+    outputs: list[tuple[str | None, str, Callable[[str], None]]] = [
+        (args.dot, "--dot", text(lambda: to_dot(net, "full"))),
+        (args.dot_tasks, "--dot-tasks", text(lambda: to_dot(net, "tasks"))),
+        (args.pnml, "--pnml", lambda path: _write_pnml(net, path)),
+        (args.net_json, "--net-json", text(lambda: json.dumps(net.to_dict(), indent=1,
+                                                           allow_nan=False))),  # strict JSON
+    ]
+    for path, option, _ in outputs:  # every path checked before anything is written
+        if path is not None:
+            check_output(path, option)
+    for path, option, write in outputs:
+        if path is not None:
+            write_output(path, option, write)
+
+
+def _write_pnml(net: Any, path: str) -> None:
+    from petri.pnml import write_pnml
+
+    write_pnml(net, path)
 
 
 def _summary(compiled: Compiled) -> dict[str, Any]:
