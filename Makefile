@@ -31,8 +31,13 @@ demo: $(RUNTIME)
 	$(BIN)/mclc missions/dam_inspection.mcl --dot out/dam_inspection.dot \
 	    --dot-tasks out/dam_inspection.tasks.dot --pnml out/dam_inspection.pnml
 	@echo
-	@echo "== The dam mission on the simulated Ictineu (simulated time), ending with the photomosaic:"
-	$(BIN)/mcl run missions/dam_inspection.mcl --log out/dam_inspection.jsonl --quiet
+	@echo "== The dam mission on the simulated Ictineu (simulated time):"
+	$(BIN)/mcl run missions/dam_inspection.mcl --log out/dam_inspection.jsonl --quiet --no-images
+	@echo
+	@echo "== A short survey of the wall (3 m of it), ending with its photomosaic and coverage map:"
+	$(BIN)/mcl run missions/dam_inspection.mcl --log out/dam_short.jsonl --quiet \
+	    --param 'path=[(0, 1), (0, 4), (0.75, 4), (0.75, 1), (1.5, 1), (1.5, 4), (2.25, 4), (2.25, 1), (3, 1), (3, 4)]' \
+	    --param 'recoveryPos=(-5, 1.5, 0.5, 0 deg)'
 	@echo
 	@echo "== Again, with a water leak 10 minutes in: the CATCH runs and the vehicle surfaces:"
 	$(BIN)/mcl run missions/dam_inspection.mcl --inject leak@600 --log out/dam_leak.jsonl --no-images

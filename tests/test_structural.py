@@ -67,7 +67,7 @@ def blocks(depth: int) -> st.SearchStrategy[ast.Block]:
 STATS = {"runs": 0, "false_alarms": 0}
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(blocks(2))
 def test_structural_misses_no_violation(body: ast.Block) -> None:
     text = printer.mission(ast.Mission(None, body))
