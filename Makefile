@@ -5,10 +5,11 @@
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
-PIP_INSTALL := $(BIN)/python -m pip --disable-pip-version-check --quiet install --no-compile
+PIP_INSTALL := $(BIN)/python -m pip --disable-pip-version-check --quiet install
 # Two installs, two stamps: the runtime (what `make demo` needs), then the test and development
-# extras on top of it (what `make test`, `make check` and `make bench` need). --no-compile:
-# modules are byte-compiled when first imported, not all (pymavlink alone is 93 MB) up front.
+# extras on top of it (what `make test`, `make check` and `make bench` need). Packages are
+# byte-compiled at install: where PYTHONDONTWRITEBYTECODE is set nothing is cached at import,
+# and every mclc would compile numpy and lark again (0.9 s instead of 0.5 s for the dam).
 RUNTIME := $(VENV)/.installed-runtime
 EXTRAS  := $(VENV)/.installed-extras
 
