@@ -3,6 +3,7 @@
 # make check  — lint (ruff) and type-check (mypy)
 # make bench  — benchmarks (figures, not pass/fail)
 PYTHON ?= python3
+PACKAGES := app mcl petri mosaic vehicle_adapters vehicle behaviours aal diagnostics
 VENV   := .venv
 BIN    := $(VENV)/bin
 PIP_INSTALL := $(BIN)/python -m pip --disable-pip-version-check --quiet install
@@ -53,8 +54,8 @@ test: $(EXTRAS)
 	$(BIN)/python -m pytest -q
 
 check: $(EXTRAS)
-	$(BIN)/ruff check mcl petri behaviours vehicle vehicle_adapters mosaic tests bench
-	$(BIN)/mypy mcl petri behaviours vehicle vehicle_adapters mosaic
+	$(BIN)/ruff check $(PACKAGES) tests bench
+	$(BIN)/mypy $(PACKAGES)
 
 bench: $(EXTRAS)
 	$(BIN)/python bench/bench_verifier.py

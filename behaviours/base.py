@@ -46,21 +46,45 @@ class Perception:
 
 @dataclass
 class Response:
-    """Velocity demands on the degrees of freedom a behaviour drives (m/s, rad/s)."""
+    """What a behaviour asks of the degrees of freedom it drives: velocity ``demands`` (m/s,
+    rad/s, body frame) for a vehicle whose controller takes velocities (the simulated Ictineu),
+    or position ``setpoints`` (x, y, z m in the world frame, z down; yaw rad) for one whose
+    autopilot holds positions (ArduSub in GUIDED). The coordinator gives each degree of freedom
+    to one behaviour, whichever of the two it asks for."""
 
     demands: dict[str, float] = field(default_factory=dict)
+    setpoints: dict[str, float] = field(default_factory=dict)
 
 
 class Behaviour:
+    """One behaviour, one lifecycle (``initialise`` -> ``update``... -> ``terminate``), on every
+    vehicle. A class declares what the registry (behaviours/registry.py) lists: its ``name``,
+    the degrees of freedom it ``drives``, the ``parameters`` it takes, the ``events`` it raises and
+    its ``priority`` in the coordinator (higher wins an overlap; 0: ranked last)."""
+
     name: ClassVar[str] = ""
     drives: ClassVar[tuple[str, ...]] = ()
     events: ClassVar[tuple[str, ...]] = ()
+    parameters: ClassVar[tuple[str, ...]] = ()
+    priority: ClassVar[int] = 0
 
     def __init__(self) -> None:
         self.active = False
         self.params: dict[str, Any] = {}
         self.raised: list[tuple[str, dict[str, Any]]] = []
         self._taken = 0
+
+    @classmethod
+    def statement(cls) -> str:
+        """What the class declares, as a task library writes it: ``behaviour GoTo drives x, y,
+        z, yaw events reached, failed;`` (one line; parameters and priority are not part of
+        the statement)."""
+        text = f"behaviour {cls.name}"
+        if cls.drives:
+            text += " drives " + ", ".join(cls.drives)
+        if cls.events:
+            text += " events " + ", ".join(cls.events)
+        return text + ";\n"
 
     # -- the lifecycle ------------------------------------------------------------------------
     def initialise(self, params: dict[str, Any], t: float) -> None:
@@ -103,6 +127,23 @@ class Behaviour:
         value = self.params.get(key, default)
         return float(value) if isinstance(value, (int, float)) else default
 
+    def angle(self, key: str, default: float) -> float:
+        """An angle parameter, in rad: the action gives it in degrees (as MCL writes angles,
+        :func:`from_degrees`); ``default`` (rad) when it is not given or not a number."""
+        value = self.params.get(key)
+        return from_degrees(value) if isinstance(value, (int, float)) else default
+
+
+# -- units, angles and limits: the one home of these helpers (behaviours/ and vehicle/) --------
+def from_degrees(value: float) -> float:
+    """An angle as the AAL carries it (a parameter, deg) -> rad, as the behaviours use it."""
+    return math.radians(float(value))
+
+
+def to_degrees(angle: float) -> float:
+    """rad -> deg: an angle as an action parameter carries it (e.g. GoTo's ``yaw``)."""
+    return math.degrees(angle)
+
 
 def wrap(angle: float) -> float:
     """An angle in (-pi, pi]."""
@@ -113,4 +154,5 @@ def wrap(angle: float) -> float:
 
 
 def clamp(value: float, limit: float) -> float:
+    """``value`` limited to [-limit, limit]."""
     return max(-limit, min(limit, value))

@@ -71,6 +71,8 @@ class GoTo(Behaviour):
     name = "GoTo"
     drives = ("x", "y", "z", "yaw")
     events = ("reached", "failed")
+    parameters = ("x", "y", "z", "yaw", "tolerance")
+    priority = 10  # a transit gives way to everything else
 
     def __init__(self, speed: float = 0.4, gain: float = 0.5, yaw_gain: float = 0.4,
                  clearance: float = 0.4, patience: float = 30.0, progress: float = 0.1) -> None:
@@ -87,7 +89,7 @@ class GoTo(Behaviour):
         if self.failed:
             return Response({"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0})
         tx, ty, tz = (self.param(k, getattr(p, k)) for k in ("x", "y", "z"))
-        tyaw = math.radians(self.param("yaw", math.degrees(p.psi)))
+        tyaw = self.angle("yaw", p.psi)
         ex, ey, ez = tx - p.x, ty - p.y, tz - p.z
         eyaw = wrap(tyaw - p.psi)
         distance = math.sqrt(ex * ex + ey * ey + ez * ez)
@@ -129,6 +131,8 @@ class WallInspection(Behaviour):
     name = "WallInspection"
     drives = ("y", "z")
     events = ("done", "failed")
+    parameters = ("path",)
+    priority = 20  # the motion along the wall over a transit
 
     def __init__(self, speed: float = 0.12, tolerance: float = 0.15, clearance: float = 0.4,
                  patience: float = 30.0, progress: float = 0.05) -> None:
@@ -182,6 +186,8 @@ class AchieveHeadDist(Behaviour):
     name = "AchieveHeadDist"
     drives = ("x", "yaw")
     events = ("achieved", "lost")
+    parameters = ("heading", "distance")
+    priority = 30  # wall keeping over the motion along the wall
 
     def __init__(self, gain: float = 0.4, yaw_gain: float = 0.4, speed: float = 0.3,
                  settle: float = 3.0, patience: float = 10.0) -> None:
@@ -200,7 +206,7 @@ class AchieveHeadDist(Behaviour):
                 self.raise_event("lost", reason="wall not tracked")
             return Response({"x": 0.0, "yaw": 0.0})
         self.seen_at = p.t
-        heading = math.radians(self.param("heading", 0.0))
+        heading = self.angle("heading", 0.0)
         distance = self.param("distance", 1.5)
         e_dist = p.wall_distance - distance
         if p.wall_normal is not None:
@@ -225,6 +231,7 @@ class Surface(Behaviour):
     name = "Surface"
     drives = ("z",)
     events = ("surfaced",)
+    priority = 40  # surfacing wins over everything
 
     def __init__(self, speed: float = 0.3, depth: float = 0.2) -> None:
         super().__init__()

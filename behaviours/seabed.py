@@ -41,6 +41,7 @@ class KeepAltitude(Behaviour):
     name = "KeepAltitude"
     drives = ("z",)
     events = ("lost",)
+    parameters = ("altitude",)
 
     def __init__(self, gain: float = 0.5, speed: float = 0.3, patience: float = 5.0) -> None:
         super().__init__()
@@ -69,6 +70,7 @@ class _Follower(Behaviour):
     enable), 'lost' when the line has been out of sight for ``patience`` s."""
 
     events = ("ended", "lost")
+    parameters = ("speed", "length")
     tracker = ""
 
     def __init__(self, patience: float = 10.0) -> None:
@@ -140,6 +142,7 @@ class SearchLine(Behaviour):
     name = "SearchLine"
     drives = ("x", "y", "yaw")
     events = ("found", "exhausted")
+    parameters = ("width",)
 
     def __init__(self, legs: int = 4, advance: float = 2.0, speed: float = 0.4,
                  patience: float = 20.0) -> None:
@@ -206,13 +209,6 @@ SEABED: tuple[type[Behaviour], ...] = (KeepAltitude, FollowPipeline, FollowCable
 
 def statements() -> str:
     """The seabed behaviours as task-library statements (``behaviour B drives ... events
-    ...;``): what the simulated vehicle declares, and what ``missions/seabed.tasks`` says."""
-    out = []
-    for cls in SEABED:
-        text = f"behaviour {cls.name}"
-        if cls.drives:
-            text += " drives " + ", ".join(cls.drives)
-        if cls.events:
-            text += " events " + ", ".join(cls.events)
-        out.append(text + ";\n")
-    return "".join(out)
+    ...;``, :meth:`Behaviour.statement`): what ``missions/seabed.tasks`` says, and what the
+    simulated vehicle declares of them (behaviours/capabilities.py, from the registry)."""
+    return "".join(cls.statement() for cls in SEABED)

@@ -22,6 +22,7 @@ class Alarms(Behaviour):
 
     name = "Alarms"
     events = ("leak", "overtemperature", "overpressure")
+    parameters = ("max_temperature", "max_pressure")
 
     def on_update(self, p: Perception) -> Response:
         if p.leak:

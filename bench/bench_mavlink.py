@@ -106,7 +106,7 @@ def measure(argv: list[str], url: str, count: int, warmup: int) -> dict[str, flo
 def bench(count: int, warmup: int, speed: float) -> dict[str, object]:
     port = free_udp_port()
     url = f"udpin:127.0.0.1:{port}"
-    vehicle = measure([sys.executable, "-m", "mcl.cli.run", "vehicle", "--mavlink",
+    vehicle = measure([sys.executable, "-m", "app.mcl", "vehicle", "--mavlink",
                        f"udpout:127.0.0.1:{port}", "--speed", str(speed)], url, count, warmup)
     port = free_udp_port()
     url = f"udpin:127.0.0.1:{port}"
@@ -123,7 +123,7 @@ def link_lost_delays(rounds: int) -> list[float]:
     delays = []
     for _ in range(rounds):
         port = free_udp_port()
-        proc = subprocess.Popen([sys.executable, "-m", "mcl.cli.run", "vehicle", "--mavlink",
+        proc = subprocess.Popen([sys.executable, "-m", "app.mcl", "vehicle", "--mavlink",
                                  f"udpout:127.0.0.1:{port}", "--speed", "10"],
                                 stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                                 stderr=subprocess.DEVNULL, text=True,

@@ -35,7 +35,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 MCC = REPO.parent / "shared" / "mcc"
 PYTHON = sys.executable
-MCLC = [PYTHON, "-m", "mcl.cli.mclc"]
+MCLC = [PYTHON, "-m", "app.mclc"]
 
 
 def latched_sequence(n: int = 1000, every: int = 3) -> str:

@@ -10,7 +10,7 @@ For each model in ../shared/mcc/models it prints, measured in this one run on th
 
 and the ratio ours/peer. Peers run in a subprocess with a time limit, and only on models of at
 most PEER_MAX_MARKINGS markings (their searches keep a Python object per marking). Then it
-times whole processes, ``python -m petri.pnml_report MODEL/model.pnml`` (median of 3).
+times whole processes, ``python -m app.pnml_report MODEL/model.pnml`` (median of 3).
 
     .venv/bin/python bench/bench_verifier.py [--models NAME ...] [--peer-timeout S]
 """
@@ -124,7 +124,7 @@ def whole_process(pnml: Path) -> tuple[float, str]:
     times, method = [], ""
     for _ in range(RUNS):
         start = time.perf_counter()
-        proc = subprocess.run([sys.executable, "-m", "petri.pnml_report", str(pnml), "--json"],
+        proc = subprocess.run([sys.executable, "-m", "app.pnml_report", str(pnml), "--json"],
                               capture_output=True, text=True, cwd=REPO, check=True)
         times.append(time.perf_counter() - start)
         report = json.loads(proc.stdout)
@@ -170,7 +170,7 @@ def main() -> int:
                 else:
                     peers[kind] = {"error": "skipped"}
             print(row(model, ours, peers), flush=True)
-        print("\nwhole process: python -m petri.pnml_report MODEL/model.pnml --json")
+        print("\nwhole process: python -m app.pnml_report MODEL/model.pnml --json")
         for model in WHOLE_PROCESS:
             if model in models or not args.models:
                 seconds, what = whole_process(extract(model, Path(tmp)))

@@ -34,8 +34,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import zenoh  # noqa: E402
 
-from vehicle_adapters.aal import ActionMessage, EventMessage, InvalidMessage  # noqa: E402
-from vehicle_adapters.zenoh_link import ZenohVehicle, keys, zenoh_config  # noqa: E402
+from aal.messages import ActionMessage, EventMessage, InvalidMessage  # noqa: E402
+from aal.zenoh import keys, zenoh_config  # noqa: E402
+from vehicle_adapters.zenoh_link import ZenohVehicle  # noqa: E402
 
 from tests.support import first_line, free_endpoint  # the repository's test helpers
 
@@ -175,7 +176,7 @@ def link_lost_delays(rounds: int) -> dict[str, list[float]]:
     for how in delays:
         for _ in range(rounds):
             endpoint = free_endpoint()
-            proc = subprocess.Popen([sys.executable, "-m", "vehicle_adapters.serve", "--zenoh",
+            proc = subprocess.Popen([sys.executable, "-m", "app.mcl", "vehicle", "--zenoh",
                                      endpoint, "--no-wait"], stdin=subprocess.DEVNULL,
                                     stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
                                     cwd=Path(__file__).resolve().parents[1])

@@ -5,10 +5,10 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+from diagnostics import Diagnostic, MclError, Source, read_source
 from petri.net import Net
 
 from . import ast, checker, compiler, parser, tasklib
-from .errors import Diagnostic, MclError, Source, read_source
 
 
 @dataclass

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Union
 
-from .errors import Span
+from diagnostics import Span
 
 _NOWHERE = Span("<none>", 0, 0)
 

@@ -15,8 +15,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from diagnostics import Diagnostic, MclError, Source, Span
+
 from . import ast
-from .errors import Diagnostic, MclError, Source, Span
 from .parser import KEYWORDS, suggest
 from .tasklib import Formal, Library, TaskForm
 from .values import FIELDS, check, describe, limits, to_text

@@ -21,8 +21,9 @@ from lark import (
     UnexpectedToken,
 )
 
+from diagnostics import MclError, Source, Span, error, read_source
+
 from . import ast
-from .errors import MclError, Source, Span, error, read_source
 
 KEYWORDS = ("MISSION", "PARAM", "USES", "TRY", "CATCH", "DO", "PARALLEL", "AND", "OR", "IF", "THEN",
             "ELSE", "WHILE")

@@ -44,7 +44,6 @@ from collections.abc import Iterable
 from functools import cache
 from typing import TYPE_CHECKING
 
-
 from petri.net import Net
 from petri.verify import Result, Verdict, undecided, verify
 
@@ -160,8 +159,9 @@ def template_check(kind: str, arity: int) -> tuple[bool, int, str]:
     """Verify one template with generic children (three variants); (ok, markings, detail).
     Every error-level property the explicit route checks must hold, stop-safe included (the
     generic children can always fail, so loops can end)."""
+    from diagnostics import Source
+
     from .api import compile_source
-    from .errors import Source
     from .tasklib import load
 
     library = load(["generic"])

@@ -18,10 +18,10 @@ from importlib import resources
 
 from lark import Lark, Token, Tree, UnexpectedInput
 
+from diagnostics import Diagnostic, MclError, Source, Span, error, read_source
 from petri.net import POINT_FIELDS
 
 from . import ast
-from .errors import Diagnostic, MclError, Source, Span, error, read_source
 from .values import FIELDS, KINDS, NUMERIC, UNITS, Range, check, limits, to_text
 
 BUILTIN_SOURCES = ("Link", "Mission")  # events the player itself raises

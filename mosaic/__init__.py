@@ -8,6 +8,6 @@ non-consecutive pairs, §6.2, §6.4), :mod:`mosaic.alignment` (global alignment 
 squares over every registered pair with the navigator as a prior, §6.5), :mod:`mosaic.blending`
 (the mosaic in the wall frame and its coverage map, §6.7), :mod:`mosaic.accuracy` (the
 figures against the simulation's ground truth), :mod:`mosaic.build` (the whole pipeline),
-:mod:`mosaic.cli` (``mcl mosaic``) and :mod:`mosaic.hook` (what ``mcl run`` calls).
+:mod:`app.mosaic` (``mcl mosaic``) and :mod:`mosaic.hook` (what ``mcl run`` calls).
 See docs/MOSAIC.md.
 """

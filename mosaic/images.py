@@ -17,13 +17,24 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from diagnostics import MclError, Span
+
 from .projection import Intrinsics, pose_from_world
 
 Image = npt.NDArray[np.uint8]
 
 
-class SurveyError(Exception):
-    """A folder that is not a run's images, with what to do instead."""
+class SurveyError(MclError):
+    """A folder that is not a run's images, with what to do instead. ``str()`` is
+    ``PATH: reason`` (``PATH:LINE: error: ...`` for a bad line of ``index.csv``); :meth:`format`
+    gives ``file[:line:col]: error: reason``."""
+
+    def __init__(self, message: str, span: Span | None = None, reason: str = "") -> None:
+        super().__init__(reason or message, span=span, code="survey", text=message)
+
+
+def _refuse(path: Path, reason: str, span: Span | None = None) -> SurveyError:
+    return SurveyError(f"{path}: {reason}", span or Span.of_file(str(path)), reason)
 
 
 @dataclass(frozen=True)
@@ -68,8 +79,8 @@ def find(path: str | Path) -> Path:
     if folder.is_dir():
         return folder
     if not p.exists():
-        raise SurveyError(f"{p}: no such run log or folder")
-    raise SurveyError(f"{p}: no images beside this run log (expected the folder {folder})")
+        raise _refuse(p, "no such run log or folder")
+    raise _refuse(p, f"no images beside this run log (expected the folder {folder})")
 
 
 def _f(row: dict[str, str], key: str) -> float:
@@ -82,13 +93,15 @@ def read(path: str | Path) -> Survey:
     folder = find(path)
     meta_path, index_path = folder / "camera.json", folder / "index.csv"
     if not meta_path.exists() or not index_path.exists():
-        raise SurveyError(f"{folder}: not a run's images (camera.json and index.csv missing)")
+        raise _refuse(folder, "not a run's images (camera.json and index.csv missing)")
     try:
         meta = json.loads(meta_path.read_text(encoding="utf-8"))
         k = Intrinsics.from_dict(meta["intrinsics"])
         wall_x = float(meta.get("wall", {}).get("x", 0.0))
     except (ValueError, KeyError, TypeError) as exc:
-        raise SurveyError(f"{meta_path}: unreadable camera description ({exc})") from None
+        at = (Span(str(meta_path), exc.lineno, exc.colno)
+              if isinstance(exc, json.JSONDecodeError) else None)
+        raise _refuse(meta_path, f"unreadable camera description ({exc})", at) from None
     frames = []
     with index_path.open(newline="", encoding="utf-8") as f:
         for line, row in enumerate(csv.DictReader(f), start=2):
@@ -112,5 +125,7 @@ def read(path: str | Path) -> Survey:
                 frames.append(Frame(int(row["index"]), _f(row, "t"), row["file"], truth,
                                     prior, tuple(max(s, 1e-4) for s in std)))  # type: ignore[arg-type]
             except (ValueError, KeyError, TypeError) as exc:
-                raise SurveyError(f"{index_path}:{line}: error: bad index line ({exc})") from None
+                reason = f"bad index line ({exc})"
+                raise SurveyError(f"{index_path}:{line}: error: {reason}",
+                                  Span(str(index_path), line, 1), reason) from None
     return Survey(folder, k, frames, wall_x, meta)

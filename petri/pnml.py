@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import IO
 from xml.parsers import expat
 
+from diagnostics import MclError, Span
 from petri.net import Net
 
 PNML_NS = "http://www.pnml.org/version-2009/grammar/pnml"
@@ -45,8 +46,9 @@ _COLORED_ELEMENTS = frozenset({"hlinitialMarking", "hlinscription", "declaration
 _NCNAME = re.compile(r"[A-Za-z_][\w.\-]*\Z")
 
 
-class PnmlError(Exception):
-    """A PNML file that cannot be read as a P/T net; ``str()`` is ``file:line:col: error: ...``."""
+class PnmlError(MclError):
+    """A PNML file that cannot be read as a P/T net; ``str()`` is ``file:line:col: error: ...``
+    (the XML line and column; just ``file: error: ...`` for the file as a whole)."""
 
     def __init__(self, message: str, path: str = "", line: int | None = None,
                  col: int | None = None) -> None:
@@ -55,9 +57,9 @@ class PnmlError(Exception):
         self.line = line
         self.col = col
         where = path or "<pnml>"
-        if line is not None:
-            where += f":{line}:{col if col is not None else 1}"
-        super().__init__(f"{where}: error: {message}")
+        span = (Span.of_file(where) if line is None
+                else Span(where, line, col if col is not None else 1))
+        super().__init__(message, span=span, code="pnml")
 
 
 # -- reading ------------------------------------------------------------------------------

@@ -2,17 +2,15 @@
 transitions, 1-safety. It picks the explicit search when the state space fits and the symbolic
 (BDD) one otherwise.
 
-Command line::
+Command line (``app/pnml_report.py``)::
 
-    python -m petri.pnml_report MODEL.pnml|MODEL.tgz [--json] [--method auto|explicit|symbolic]
+    python -m app.pnml_report MODEL.pnml|MODEL.tgz [--json] [--method auto|explicit|symbolic]
 
 A ``.tgz`` is a Model Checking Contest archive; its ``*/model.pnml`` is read.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
 import tarfile
 import tempfile
@@ -174,28 +172,3 @@ def report_file(path: str, fmt: str = "text") -> tuple[int, Report]:
         print(f"{path}:")
         print(format_report(report))
     return EXIT_OK, report
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m petri.pnml_report",
-                                     description="State-space report of a PNML P/T net.")
-    parser.add_argument("model", help="a .pnml file or a Model Checking Contest .tgz")
-    parser.add_argument("--json", action="store_true", help="print the report as JSON")
-    parser.add_argument("--method", choices=("auto", "explicit", "symbolic"), default="auto")
-    parser.add_argument("--max-markings", type=int, default=20_000_000)
-    args = parser.parse_args(argv)
-    try:
-        net = load_net(args.model)
-        report = analyse(net, method=args.method, max_markings=args.max_markings)
-    except PnmlError as exc:
-        print(exc, file=sys.stderr)
-        return 1
-    except (ValueError, symbolic.NotOneSafe, symbolic.SymbolicLimit) as exc:  # --method symbolic
-        print(f"{args.model}: error: {exc}", file=sys.stderr)
-        return 1
-    print(json.dumps(report, indent=2) if args.json else format_report(report))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

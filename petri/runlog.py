@@ -21,6 +21,8 @@ import math
 from pathlib import Path
 from typing import IO, Any
 
+from diagnostics import MclError, Span
+
 from .net import Net
 from .player import Record
 
@@ -89,13 +91,20 @@ class RunLog:
         self.close()
 
 
-class LogError(ValueError):
-    """A run log that cannot be read or is not what the run wrote; says which line."""
+class LogError(MclError, ValueError):
+    """A run log that cannot be read or is not what the run wrote; says which line.
 
-    def __init__(self, message: str, line: int | None = None, reason: str = ""):
-        super().__init__(message)
+    ``str()`` is ``file:line: reason`` (``file: reason`` for the file as a whole);
+    :meth:`format` gives ``file:line:col: error: reason`` (the column of a JSON error)."""
+
+    def __init__(self, message: str, line: int | None = None, reason: str = "", *,
+                 path: str | Path | None = None, col: int = 1) -> None:
         self.line = line
         self.reason = reason or message  # without the file and line
+        span = None
+        if path is not None:
+            span = Span.of_file(str(path)) if line is None else Span(str(path), line, col)
+        super().__init__(self.reason, span=span, code="run-log", text=message)
 
 
 def read_log(path: str | Path) -> list[dict[str, Any]]:
@@ -109,7 +118,7 @@ def read_log(path: str | Path) -> list[dict[str, Any]]:
             for number, line in enumerate(f, start=1):
                 if not line.endswith("\n"):
                     raise _bad(path, number, "the last record is cut off (the log is "
-                               "truncated)")
+                               "truncated)", col=len(line) + 1)
                 records.append(_record(path, number, line))
     except FileNotFoundError:
         raise _unreadable(path, "no such file") from None
@@ -131,7 +140,7 @@ def _record(path: str | Path, number: int, line: str) -> dict[str, Any]:
     try:
         obj = json.loads(line)
     except json.JSONDecodeError as exc:
-        raise _bad(path, number, f"not a JSON record ({exc.msg})") from None
+        raise _bad(path, number, f"not a JSON record ({exc.msg})", col=exc.colno) from None
     except RecursionError:
         raise _bad(path, number, "not a JSON record (nested too deeply)") from None
     if not isinstance(obj, dict) or not isinstance(obj.get("kind"), str):
@@ -192,11 +201,11 @@ def verify(records: list[dict[str, Any]], path: str | Path) -> None:
 
 
 def _unreadable(path: str | Path, reason: str) -> LogError:
-    return LogError(f"{path}: {reason}", None, reason)
+    return LogError(f"{path}: {reason}", None, reason, path=path)
 
 
-def _bad(path: str | Path, line: int, reason: str) -> LogError:
-    return LogError(f"{path}:{line}: {reason}", line, reason)
+def _bad(path: str | Path, line: int, reason: str, col: int = 1) -> LogError:
+    return LogError(f"{path}:{line}: {reason}", line, reason, path=path, col=col)
 
 
 def ended(record: dict[str, Any]) -> bool:

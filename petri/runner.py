@@ -28,7 +28,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from vehicle_adapters.aal import ActionMessage, Vehicle
+from aal.messages import ActionMessage, Vehicle
 
 from .player import Player, Record
 

@@ -25,7 +25,8 @@ import pytest
 os.environ["MAVLINK20"] = "1"
 from pymavlink import mavutil  # noqa: E402
 
-from vehicle_adapters import ardusub, signing  # noqa: E402
+from aal import signing  # noqa: E402
+from vehicle import ardusub  # noqa: E402
 
 from .support import REPO, budget, first_line, free_udp_port  # noqa: E402
 
@@ -44,7 +45,7 @@ class Vehicle:
     def __init__(self, port: int, args: list[str], env: dict[str, str], log: Path) -> None:
         self.log = log.open("w")
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "mcl.cli.run", "vehicle", "--mavlink",
+            [sys.executable, "-m", "app.mcl", "vehicle", "--mavlink",
              f"udpout:127.0.0.1:{port}", *args],
             cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
             stderr=self.log, text=True)
@@ -393,7 +394,7 @@ def test_load_key_forms_and_errors(tmp_path: Path, monkeypatch: pytest.MonkeyPat
 def test_bad_input_is_one_line_and_status_2(args: list[str], message: str) -> None:
     env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
     env.pop(signing.ENV_KEY, None)
-    done = subprocess.run([sys.executable, "-m", "mcl.cli.run", "vehicle", *args],
+    done = subprocess.run([sys.executable, "-m", "app.mcl", "vehicle", *args],
                           capture_output=True, text=True, timeout=budget(6), cwd=REPO, env=env,
                           stdin=subprocess.DEVNULL)
     assert done.returncode == 2

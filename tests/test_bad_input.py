@@ -39,8 +39,8 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from mcl.cli import mclc
-from mcl.cli import run as mcl
+from app import mclc
+from app import mcl
 from tests.support import BIN, MISSIONS, REPO
 
 SMALL = "MISSION {\n    StartLogs(enable);\n    Wait(2 s);\n    StartLogs(disable)\n}\n"
@@ -72,9 +72,11 @@ def accepted(*_: Any, **__: Any) -> Any:
 @contextlib.contextmanager
 def no_links() -> Iterator[None]:
     """Every place a command would open a link, serve or install signal handlers."""
-    from vehicle_adapters import ardusub, mavlink_link, serve, zenoh_link
+    from vehicle import ardusub
+    from vehicle import zenoh_server as serve
+    from vehicle_adapters import mavlink_link, zenoh_link
 
-    from mcl.cli import monitor
+    from app import monitor
 
     with mock.patch.object(zenoh_link.ZenohVehicle, "__enter__", accepted), \
             mock.patch.object(mavlink_link.MavlinkVehicle, "__enter__", accepted), \
@@ -209,7 +211,7 @@ def test_zenoh_messages_lose_the_paths_of_the_machine_that_built_zenoh() -> None
 
     import zenoh
 
-    from vehicle_adapters.zenoh_link import zenoh_error
+    from aal.zenoh import zenoh_error
 
     config = zenoh.Config()
     with pytest.raises(zenoh.ZError) as caught:  # Zenoh's message names its source files

@@ -1,5 +1,5 @@
 """The vehicle's behaviours (behaviours/), the coordinator and the velocity controller
-(vehicle/coordinator.py, vehicle/controller.py), each on its own with hand-made perceptions.
+(behaviours/coordinator.py, vehicle/controller.py), each on its own with hand-made perceptions.
 
 Behaviours: the lifecycle (initialise / update / terminate, take_events), the events of AAL.md
 (each once per enable), the degrees of freedom each drives and its speed limits. Motion
@@ -34,7 +34,7 @@ from behaviours import (
 )
 from mcl import tasklib
 from vehicle.controller import DEFAULT_GAINS, VelocityController
-from vehicle.coordinator import PRIORITY, Coordinator
+from behaviours.coordinator import PRIORITY, Coordinator
 
 DT = 0.1  # s between hand-made perceptions
 
@@ -583,6 +583,20 @@ def test_the_coordinator_counts_overlapping_ticks() -> None:
     c.merge({"GoTo": Response({"x": 0.4, "y": 0.3, "z": 0.2, "yaw": 0.1}),
              "AchieveHeadDist": Response({"x": 0.05, "yaw": 0.02})})
     assert c.overlaps == 1
+
+
+def test_the_coordinator_counts_position_setpoints_like_demands() -> None:
+    c = Coordinator()
+    out = c.merge({"GoTo": Response(setpoints={"x": 3.0, "y": -1.0, "z": 2.0, "yaw": 0.5}),
+                   "Surface": Response({"z": -0.3})})
+    assert out == {"x": 0.0, "y": 0.0, "z": -0.3, "yaw": 0.0}  # z: Surface's; the rest held
+    assert c.last_setpoints == {"x": 3.0, "y": -1.0, "yaw": 0.5}  # GoTo lost z to Surface
+    assert c.last_owner == {"z": "Surface", "x": "GoTo", "y": "GoTo", "yaw": "GoTo"}
+    assert c.overlaps == 1
+    c.merge({"WallInspection": Response(setpoints={"y": 1.0}), "GoTo": Response({"y": 0.2})})
+    assert (c.last_setpoints, c.last_owner["y"], c.overlaps) == ({"y": 1.0}, "WallInspection", 2)
+    c.merge({})
+    assert c.last_setpoints == {} and c.last_owner == {}
 
 
 # --- the velocity controller --------------------------------------------------------------

@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, Phase, given, settings
 
 from mcl import ast, printer
 from mcl.api import compile_source
-from mcl.errors import Source
+from diagnostics import Source
 from petri.player import Player
 from petri.verify import verify
 from tests.test_structural import LIBRARY, blocks

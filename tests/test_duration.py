@@ -27,7 +27,7 @@ from hypothesis import strategies as st
 from mcl import ast, printer, tasklib
 from mcl.api import compile_file, compile_source
 from mcl.duration import Durations, analyse, judge, parse_battery, parse_deadline, parse_reserve
-from mcl.errors import Source
+from diagnostics import Source
 from petri.net import Net
 from petri.player import Player, Record
 from petri.semantics import MISSION_ABORT

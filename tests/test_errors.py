@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from mcl.api import compile_source, parse_params
-from mcl.errors import MclError, Source
+from diagnostics import MclError, Source
 from tests.support import cli, write
 
 DAM_HEAD = "MISSION {\n    StartLogs(enable);\n"

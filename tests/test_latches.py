@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from mcl import ast, compiler, latches, printer, tasklib
 from mcl.api import compile_source
-from mcl.errors import Source
+from diagnostics import Source
 from petri import reachability as rg
 from petri.net import Net
 from tests import strategies as S

@@ -16,7 +16,7 @@ import pytest
 
 from mcl import ast, parser, printer
 from mcl.api import compile_file
-from mcl.errors import Source
+from diagnostics import Source
 from petri.verify import verify
 from tests.support import MISSIONS, cli
 

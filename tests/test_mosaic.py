@@ -12,7 +12,8 @@ import pytest
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("scipy")
 
-from mosaic import accuracy, alignment, build, cli, illumination, registration
+from app import mosaic as cli
+from mosaic import accuracy, alignment, build, illumination, registration
 from mosaic.projection import Intrinsics as K
 from mosaic.projection import apply, homography, pose_from_world
 from vehicle.camera import ImageRecorder, Intrinsics, TextureSpec, WallCamera, WallTexture, wall_hits

@@ -263,7 +263,7 @@ def test_several_nets(tmp_path: Path) -> None:
 # -- the command line ---------------------------------------------------------------------
 
 def run_report(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "petri.pnml_report", *args],
+    return subprocess.run([sys.executable, "-m", "app.pnml_report", *args],
                           capture_output=True, text=True, timeout=300, check=False,
                           cwd=Path(__file__).resolve().parents[1], stdin=subprocess.DEVNULL)
 

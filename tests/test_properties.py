@@ -24,7 +24,7 @@ from hypothesis import strategies as st
 
 from mcl import ast, printer, tasklib
 from mcl.api import compile_source
-from mcl.errors import Diagnostic, MclError, Source, Span
+from diagnostics import Diagnostic, MclError, Source, Span
 from mcl.parser import parse
 from petri.net import Net
 from petri.verify import verify

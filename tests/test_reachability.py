@@ -398,7 +398,7 @@ def test_transitions_are_looked_up_by_their_rarest_input() -> None:
 
 def test_integer_and_set_markings_give_the_same_graph(monkeypatch: pytest.MonkeyPatch) -> None:
     from mcl.api import compile_source
-    from mcl.errors import Source
+    from diagnostics import Source
     from petri import _explore_bits
 
     texts = ["MISSION { PARALLEL { Wait(1 s); GoTo((0, 0, 1, 0 deg)) } AND { Alarms() } }",

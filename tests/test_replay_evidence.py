@@ -8,7 +8,7 @@ malformed record is an error with its line number (exit 1), never an internal er
 digest identifies the net, not the path used to name its file.
 
 The logs are made in process (player, runner, scripted vehicle, RunLog) and replayed through
-``mcl.cli.run.main(["replay", ...])`` in process: exit 0 conformant, 1 not, 2 invalid input.
+``app.mcl.main(["replay", ...])`` in process: exit 0 conformant, 1 not, 2 invalid input.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mcl.api import compile_file
-from mcl.cli import run as mcl
+from app import mcl
 from petri.player import Player
 from petri.replay import check
 from petri.runlog import FORMAT, GENESIS, RunLog, canonical, net_digest, read_log, verify

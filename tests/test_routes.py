@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from mcl import printer, structural
 from mcl.api import Compiled, compile_source
-from mcl.errors import Source
+from diagnostics import Source
 from mcl.tasklib import load_sources
 from mcl.verification import merge, verify_mission
 from petri.verify import Verdict, verify

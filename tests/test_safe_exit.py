@@ -28,7 +28,7 @@ import pytest
 from mcl.api import compile_file
 from petri.player import Player, Record
 from petri.runner import MissionClock, run
-from vehicle_adapters.aal import ActionMessage
+from aal.messages import ActionMessage
 from vehicle_adapters.inprocess import InProcess
 from vehicle_adapters.scripted import ScriptedVehicle, parse_script
 
@@ -315,7 +315,7 @@ def test_a_script_naming_an_unknown_behaviour_or_event_is_an_error(
 
 
 def test_default_max_time_is_stated_and_derived_from_the_mission(tmp_path: Path) -> None:
-    from mcl.cli import safe_exit
+    from app import safe_exit
 
     helped = subprocess.run([str(BIN / "mcl"), "run", "--help"], capture_output=True,
                             text=True, timeout=60, cwd=REPO)
@@ -336,9 +336,9 @@ def test_default_max_time_is_stated_and_derived_from_the_mission(tmp_path: Path)
 
 
 def test_the_simulated_stack_has_exactly_the_declared_behaviours() -> None:
-    from mcl.cli.safe_exit import _parameters, declared_behaviours
+    from app.safe_exit import _parameters, declared_behaviours
     from vehicle.stack import IctineuStack
-    from vehicle_adapters.capabilities import simulated
+    from behaviours.capabilities import simulated
 
     library = declared_behaviours(simulated("sim"))
     assert set(library.behaviours) == set(IctineuStack().behaviours)
@@ -364,7 +364,7 @@ def test_mission_time_starts_at_0_whatever_the_vehicle_clock_reads(tmp_path: Pat
 
 
 def test_the_monitor_shows_the_vehicle_clock_beside_mission_time() -> None:
-    from mcl.cli.monitor import _beside
+    from app.monitor import _beside
 
     assert _beside({"t": 10.0, "clock": 1425.9}, 12.0) == " (vehicle 1427.9 s)"
     assert _beside({"t": 10.0, "clock": 10.0}, 12.0) == ""

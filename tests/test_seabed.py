@@ -105,7 +105,7 @@ def test_seabed_tasks_declares_exactly_what_the_vehicle_provides() -> None:
         assert f"behaviour {cls.name}" in statements()
     stack = IctineuStack()
     assert {cls.name for cls in SEABED} <= set(stack.behaviours)
-    from vehicle_adapters.capabilities import simulated
+    from behaviours.capabilities import simulated
 
     assert "behaviour FollowCable drives x, yaw events ended, lost;" in simulated("sim").text
 

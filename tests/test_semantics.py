@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 from mcl import printer, tasklib
 from mcl.api import compile_source
-from mcl.errors import Source
+from diagnostics import Source
 from petri.net import Net
 from petri.player import Player, Record
 from petri.reachability import explore
@@ -28,7 +28,7 @@ from petri.semantics import Semantics
 from petri.verify import Result, verify
 from tests import strategies as S
 
-MCLC = [sys.executable, "-m", "mcl.cli.mclc"]
+MCLC = [sys.executable, "-m", "app.mclc"]
 GENERIC = tasklib.load(["generic"])
 
 
@@ -139,7 +139,7 @@ def test_mcl_run_of_a_zeno_mission_ends_by_itself(tmp_path: Path) -> None:
     path = tmp_path / "zeno.mcl"
     path.write_text(ZENO)
     log = tmp_path / "run.jsonl"
-    proc = subprocess.run([sys.executable, "-m", "mcl.cli.run", "run", str(path),
+    proc = subprocess.run([sys.executable, "-m", "app.mcl", "run", str(path),
                            "--no-verify", "--log", str(log), "--quiet"],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode != 0, proc.stdout

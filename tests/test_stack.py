@@ -33,7 +33,7 @@ from tests.support import MISSIONS, cli
 from vehicle.robot import Environment
 from vehicle.stack import DT, IctineuStack, StackConfig
 from vehicle.survey import Survey
-from vehicle_adapters.aal import ActionMessage, EventMessage
+from aal.messages import ActionMessage, EventMessage
 from vehicle_adapters.inprocess import InProcess
 
 DAM = MISSIONS / "dam_inspection.mcl"

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from mcl import ast, printer, structural
 from mcl.api import compile_source
-from mcl.errors import Source
+from diagnostics import Source
 from mcl.tasklib import load_sources
 from petri.net import Origin
 from petri.verify import verify

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from mcl import tasklib
-from mcl.errors import MclError, Source
+from diagnostics import MclError, Source
 from tests.support import cli, write
 
 ROV_TASKS = """

@@ -17,7 +17,7 @@ import pytest
 
 from mcl import tasklib
 from mcl.api import Compiled, compile_source
-from mcl.errors import Source
+from diagnostics import Source
 from mcl.templates import common
 from petri.verify import Verdict, verify
 from tests.support import GENERIC_TASKS

@@ -26,7 +26,7 @@ from hypothesis import strategies as st
 import petri.timed as timed
 from mcl import ast, printer
 from mcl.api import compile_file, compile_source
-from mcl.errors import Source
+from diagnostics import Source
 from petri.net import Net
 from petri.player import Player, Record
 from petri.reachability import explore

@@ -15,7 +15,7 @@ import pytest
 
 from mcl import tasklib
 from mcl.api import compile_file, compile_source, parse_params
-from mcl.errors import MclError, Source
+from diagnostics import MclError, Source
 from tests.support import REPO, cli, write
 
 # A user's library: declared degrees of freedom, a range, point field defaults.

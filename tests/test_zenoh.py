@@ -1,6 +1,6 @@
 """The Zenoh adapter with real processes on loopback.
 
-The vehicle stack runs in a subprocess (``python -m vehicle_adapters.serve``) on a free port;
+The vehicle stack runs in a subprocess (``python -m app.mcl vehicle``) on a free port;
 the player runs here, through :class:`ZenohVehicle`. Every process is stopped in a ``finally``,
 every wait is bounded, and the tests synchronise on events and liveliness, not on sleeps.
 """
@@ -27,9 +27,10 @@ from petri.player import Player, Record  # noqa: E402
 from petri.runner import run  # noqa: E402
 from petri.status import task_calls  # noqa: E402
 from vehicle.stack import IctineuStack, StackConfig  # noqa: E402
-from vehicle_adapters.aal import ActionMessage  # noqa: E402
+from aal.messages import ActionMessage  # noqa: E402
 from vehicle_adapters.inprocess import InProcess  # noqa: E402
-from vehicle_adapters.zenoh_link import LEASE_MS, ZenohVehicle, keys, zenoh_config  # noqa: E402
+from aal.zenoh import LEASE_MS, keys, zenoh_config  # noqa: E402
+from vehicle_adapters.zenoh_link import ZenohVehicle  # noqa: E402
 
 from .support import (  # noqa: E402
     MISSIONS, REPO, TOLERANT_LEASE_MS, budget, free_endpoint, started)
@@ -45,7 +46,7 @@ def vehicle_process(endpoint: str, *extra: str, speed: float = SPEED,
                     ) -> AbstractContextManager[subprocess.Popen[str]]:
     """The vehicle server as a real subprocess; yields once it says it is ready."""
     env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", MCL_ZENOH_LEASE_MS=str(lease_ms))
-    return started([sys.executable, "-m", "vehicle_adapters.serve", "--zenoh", endpoint,
+    return started([sys.executable, "-m", "app.mcl", "vehicle", "--zenoh", endpoint,
                     "--speed", str(speed), "--seed", str(SEED), *extra], env=env)
 
 
@@ -214,7 +215,7 @@ def test_no_vehicle_gives_link_lost_without_hanging() -> None:
 
 def mcl(*args: str) -> subprocess.Popen[str]:
     """A real ``mcl`` subprocess (stdout and stderr piped)."""
-    return subprocess.Popen([sys.executable, "-m", "mcl.cli.run", *args], cwd=REPO,
+    return subprocess.Popen([sys.executable, "-m", "app.mcl", *args], cwd=REPO,
                             env=dict(os.environ, PYTHONDONTWRITEBYTECODE="1",
                                      MCL_ZENOH_LEASE_MS=str(TOLERANT_LEASE_MS)),
                             stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
@@ -410,7 +411,7 @@ def test_monitor_on_a_terminal_redraws_one_screen() -> None:
     endpoint = free_endpoint()
     with vehicle_process(endpoint):
         master, slave = pty.openpty()
-        proc = subprocess.Popen([sys.executable, "-m", "mcl.cli.run", "monitor", "--zenoh",
+        proc = subprocess.Popen([sys.executable, "-m", "app.mcl", "monitor", "--zenoh",
                                  endpoint, "--timeout", "1.5"], cwd=REPO, stdin=subprocess.DEVNULL,
                                 stdout=slave, stderr=subprocess.PIPE)
         os.close(slave)

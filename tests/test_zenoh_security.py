@@ -31,10 +31,12 @@ import pytest
 
 zenoh = pytest.importorskip("zenoh")
 
-from vehicle_adapters import zenoh_security  # noqa: E402
-from vehicle_adapters.aal import ActionMessage  # noqa: E402
-from vehicle_adapters.zenoh_link import ZenohVehicle, keys, zenoh_config  # noqa: E402
-from vehicle_adapters.zenoh_security import Security  # noqa: E402
+from aal import zenoh_security  # noqa: E402
+from app import zenoh_options  # noqa: E402
+from aal.messages import ActionMessage  # noqa: E402
+from aal.zenoh import keys, zenoh_config  # noqa: E402
+from vehicle_adapters.zenoh_link import ZenohVehicle  # noqa: E402
+from aal.zenoh_security import Security  # noqa: E402
 
 from .support import (  # noqa: E402
     BIN, REPO, TOLERANT_LEASE_MS, budget, cli, free_endpoint, started)
@@ -172,7 +174,7 @@ def users(tmp_path: Path) -> dict[str, Path]:
 
 def credentials(user: str, password_file: Path, endpoint: str) -> Security:
     args = argparse.Namespace(zenoh=endpoint, user=user, password_file=str(password_file))
-    return zenoh_security.from_args(args, "observer")
+    return zenoh_options.from_args(args, "observer")
 
 
 def test_users_the_player_runs_a_mission_an_observer_cannot_act(users: dict[str, Path],
@@ -265,7 +267,7 @@ def tls(pki: Path, who: str, endpoint: str, role: str = "observer") -> Security:
     args = argparse.Namespace(zenoh=endpoint, tls_ca=str(pki / "ca.pem"),
                               tls_cert=str(pki / f"{who}.pem"),
                               tls_key=str(pki / f"{who}.key"))
-    return zenoh_security.from_args(args, role)
+    return zenoh_options.from_args(args, role)
 
 
 def tls_options(pki: Path, who: str) -> list[str]:
@@ -354,9 +356,9 @@ def test_password_from_the_environment_and_users_file_rules(tmp_path: Path,
     args = argparse.Namespace(zenoh=endpoint, user="player", password_file=None)
     monkeypatch.delenv(zenoh_security.PASSWORD_ENV, raising=False)
     with pytest.raises(ValueError, match="needs a password"):
-        zenoh_security.from_args(args, "player")
+        zenoh_options.from_args(args, "player")
     monkeypatch.setenv(zenoh_security.PASSWORD_ENV, "pilot-secret")
-    assert zenoh_security.from_args(args, "player").password == "pilot-secret"
+    assert zenoh_options.from_args(args, "player").password == "pilot-secret"
     # Zenoh's dictionary: blank lines skipped, ':' allowed in a password, no comments
     users = tmp_path / "users.txt"
     users.write_text("player:a:b\n\noperator : watch\n")

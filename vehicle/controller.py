@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from behaviours import DOFS
+from behaviours.base import clamp
 
 
 @dataclass
@@ -41,10 +42,10 @@ class VelocityController:
             g = self.gains[dof]
             error = setpoints.get(dof, 0.0) - velocity.get(dof, 0.0)
             i = self.integral[dof] + g.ki * error * dt
-            i = max(-g.limit, min(g.limit, i))  # anti-windup
+            i = clamp(i, g.limit)  # anti-windup
             self.integral[dof] = i
             demand = g.feed * setpoints.get(dof, 0.0) + g.kp * error + i
-            tau[dof] = max(-g.limit, min(g.limit, demand))
+            tau[dof] = clamp(demand, g.limit)
         return tau
 
     def reset(self) -> None:

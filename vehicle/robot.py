@@ -43,17 +43,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from behaviours.base import wrap
+
 FloatArray = npt.NDArray[np.float64]
 
 GRAVITY = 9.81  # m/s^2
 
 
-def wrap_angle(a: float) -> float:
-    """Wrap an angle to (-pi, pi]."""
-    w = math.fmod(a + math.pi, 2.0 * math.pi)
-    if w <= 0.0:
-        w += 2.0 * math.pi
-    return w - math.pi
+wrap_angle = wrap  # an angle in (-pi, pi]: behaviours/base.py's, the one home of the helper
 
 
 @dataclass(frozen=True, slots=True)

@@ -12,8 +12,6 @@ adapter's ``on_action`` / ``next_time`` / ``due``), and what ``mcl vehicle`` wil
 
 from __future__ import annotations
 
-import argparse
-
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -21,13 +19,14 @@ from typing import Any
 import numpy as np
 
 import behaviours as bh
-from behaviours.seabed import SEABED
-from vehicle_adapters.aal import ActionMessage, EventMessage
+from aal.messages import ActionMessage, EventMessage
+from behaviours import registry
+from behaviours.coordinator import Coordinator
 
 from .controller import VelocityController
-from .coordinator import Coordinator
 from .navigator import Navigator
 from .robot import AREA, Environment, Ictineu, VehicleState, wrap_angle
+from .seabed_vision import SeabedVision
 from .sensors import (
     CameraImage,
     DepthReading,
@@ -38,7 +37,6 @@ from .sensors import (
     SonarBeam,
     UsblFix,
 )
-from .seabed_vision import SeabedVision
 from .survey import Survey
 from .wall import WallDetector, WallTracker
 
@@ -57,15 +55,6 @@ def parse_fault(text: str) -> tuple[str, float]:
         raise ValueError(f"{text}: expected FAULT@SECONDS with FAULT one of "
                          f"{', '.join(FAULTS)}, e.g. leak@600")
     return kind, when
-
-
-def fault_argument(text: str) -> tuple[str, float]:
-    """:func:`parse_fault` for argparse (``type=fault_argument``): a bad fault is a usage
-    error, not a traceback."""
-    try:
-        return parse_fault(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 @dataclass
@@ -110,8 +99,8 @@ class IctineuStack:
         self.nav_t = 0.0
         self.detector = WallDetector()
         self.tracker: WallTracker | None = None
-        self.behaviours: dict[str, bh.Behaviour] = {cls.name: cls()
-                                                    for cls in (*bh.ALL, *SEABED)}
+        self.behaviours: dict[str, bh.Behaviour] = {cls.name: cls()  # one of each registered
+                                                    for cls in registry.behaviours()}
         self.coordinator = Coordinator()
         self.controller = VelocityController()
         self.t = 0.0

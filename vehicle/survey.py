@@ -9,9 +9,9 @@ the navigator's error, the wall tracker's error during the survey — the figure
 from __future__ import annotations
 
 import math
-from xml.sax.saxutils import escape
 from dataclasses import dataclass, field
 from typing import Any
+from xml.sax.saxutils import escape
 
 import numpy as np
 

@@ -11,7 +11,7 @@ import logging
 import time
 from typing import Any, Protocol
 
-from .aal import ActionMessage, Declaration, EventMessage, InvalidMessage
+from aal.messages import ActionMessage, Declaration, EventMessage, InvalidMessage
 
 log = logging.getLogger(__name__)
 

@@ -19,7 +19,7 @@ import queue
 import threading
 import time
 
-from .aal import EventMessage
+from aal.messages import EventMessage
 
 log = logging.getLogger(__name__)
 

@@ -1,120 +1,84 @@
-"""The behaviours ArduSub does not have, run by the MAVLink adapter on top of guided setpoints
-(AAL.md), and the thin ones it maps onto ArduSub's own (GoTo on a position target, Surface on
-the SURFACE mode, Alarms on STATUSTEXT and the internal barometer).
+"""ArduSub's control laws for the shared behaviours: the same classes (behaviours/motion.py,
+behaviours/sensing.py: name, degrees of freedom, events, parameters, priority, lifecycle),
+answering position ``setpoints`` that ArduSub holds in GUIDED instead of velocity demands.
 
-Each is enabled with the action's params, updated with the vehicle's last telemetry
-(:class:`Telemetry`, the local NED frame = the mission's world frame) and answers the setpoint
-components it drives; the adapter merges them by :data:`PRIORITY`, as the vehicle's
-coordinator does (vehicle/coordinator.py), and sends the events they raise (once per enable).
+- GoTo: its target as the setpoint; ``reached`` within the tolerance and 5 deg of the yaw.
+- WallInspection (ArduSub has none): walks its (y, z) waypoints with a look-ahead point on each
+  leg, so that ArduSub's position controller moves at a survey pace.
+- AchieveHeadDist (ArduSub has none): holds the vehicle at the distance from the wall's foot
+  (DISTANCE_SENSOR), turned to the heading.
+- Surface: ArduSub's SURFACE mode does the work (the adapter switches to it); no setpoint.
+- Alarms: the alarms ArduSub said in STATUSTEXT, then the internal barometer's readings.
+
+They perceive an :class:`ArduSubPerception`: the shared :class:`Perception` (psi = ATTITUDE's
+yaw, the local NED frame = the mission's world frame) and what the MAVLink telemetry adds.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
 
-from behaviours.base import wrap
-from behaviours.motion import wall_path
+from behaviours import motion, sensing
+from behaviours.base import Behaviour, Perception, Response, wrap
 
-SURFACE_DEPTH = 0.2  # m: Surface.surfaced at or above this depth
 LOOKAHEAD = 0.3  # m ahead on a WallInspection leg: the vehicle follows at a survey pace
-WAYPOINT_TOLERANCE = 0.15  # m: a WallInspection waypoint is passed this close
-WALL_PATIENCE = 10.0  # vehicle s without the wall before AchieveHeadDist.lost
-SETTLE = 3.0  # vehicle s within bounds before AchieveHeadDist.achieved
 
 
-@dataclass
-class Telemetry:
-    """What the vehicle last said about itself (local NED frame = the world frame)."""
+@dataclass(frozen=True)
+class ArduSubPerception(Perception):
+    """The shared perception and what ArduSub's telemetry adds to it."""
 
-    t: float = 0.0  # vehicle s of the last position
-    x: float = 0.0
-    y: float = 0.0
-    z: float = 0.0
-    yaw: float = 0.0  # rad
-    positioned: bool = False  # a LOCAL_POSITION_NED has come
-    wall_distance: float | None = None  # m, perpendicular; None: not tracked
-    wall_bearing: float = 0.0  # rad, from the heading to the wall's normal
     wall_point: tuple[float, float] | None = None  # (x, y) of the wall's foot, last seen
-    wall_seen_at: float = -math.inf
-    alarms: set[str] = field(default_factory=set)  # latched: "leak", "overtemperature", ...
-    temperature: float | None = None  # deg C inside (SCALED_PRESSURE), if sent
-    pressure: float | None = None  # bar inside
+    wall_seen_at: float = -math.inf  # vehicle s of the last DISTANCE_SENSOR on the wall
+    alarms: frozenset[str] = frozenset()  # latched from STATUSTEXT: "leak", ...
 
 
-class Behaviour:
-    """A behaviour as the adapter runs it: enabled with the action's params, updated with the
-    telemetry, answering the setpoint components it drives and raising its events."""
-
-    drives: tuple[str, ...] = ()
-
-    def __init__(self, name: str) -> None:
-        self.name = name
-        self.active = False
-        self.params: dict[str, Any] = {}
-        self.raised: set[str] = set()
-        self.events: list[tuple[str, dict[str, Any]]] = []
-
-    def enable(self, params: dict[str, Any], tel: Telemetry) -> None:
-        self.active, self.params, self.raised = True, dict(params), set()
-        self.start(tel)
-
-    def start(self, tel: Telemetry) -> None:
-        pass
-
-    def update(self, tel: Telemetry) -> dict[str, float]:
-        return {}
-
-    def raise_event(self, name: str, **data: Any) -> None:
-        if name not in self.raised:  # once per enable, as on the vehicle stack
-            self.raised.add(name)
-            self.events.append((name, data))
-
-    def param(self, key: str, default: float) -> float:
-        value = self.params.get(key, default)
-        return float(value) if isinstance(value, (int, float)) else default
+def perceived(p: Perception) -> ArduSubPerception:
+    """``p`` as the MAVLink adapter perceives (it builds no other kind)."""
+    if not isinstance(p, ArduSubPerception):
+        raise TypeError("the MAVLink behaviours perceive an ArduSubPerception")
+    return p
 
 
-class GoTo(Behaviour):
-    drives = ("x", "y", "z", "yaw")
+class GoTo(motion.GoTo):
+    """The target (x, y, z, and yaw if given) as ArduSub's position setpoint."""
 
-    def update(self, tel: Telemetry) -> dict[str, float]:
-        target = {k: self.param(k, getattr(tel, k)) for k in ("x", "y", "z")}
+    def on_update(self, p: Perception) -> Response:
+        target = {"x": self.param("x", p.x), "y": self.param("y", p.y),
+                  "z": self.param("z", p.z)}
         if "yaw" in self.params:
-            target["yaw"] = math.radians(self.param("yaw", 0.0))
-        error = math.dist((target["x"], target["y"], target["z"]), (tel.x, tel.y, tel.z))
-        yaw_ok = abs(wrap(target.get("yaw", tel.yaw) - tel.yaw)) < math.radians(5)
+            target["yaw"] = self.angle("yaw", 0.0)
+        error = math.dist((target["x"], target["y"], target["z"]), (p.x, p.y, p.z))
+        yaw_ok = abs(wrap(target.get("yaw", p.psi) - p.psi)) < math.radians(5)
         if error < self.param("tolerance", 0.5) and yaw_ok:
             self.raise_event("reached")
-        return target
+        return Response(setpoints=target)
 
 
-class WallInspection(Behaviour):
-    drives = ("y", "z")
+class WallInspection(motion.WallInspection):
+    """The (y, z) waypoints, each leg followed by a point ``LOOKAHEAD`` ahead of the vehicle."""
 
-    def start(self, tel: Telemetry) -> None:
-        self.index = 0
-        self.leg_start = (tel.y, tel.z)
-        try:
-            self.path = wall_path(self.params.get("path"))
-        except ValueError as exc:
-            self.path = []
-            self.raise_event("failed", reason=str(exc))
+    def on_initialise(self, t: float) -> None:
+        super().on_initialise(t)  # the path (or 'failed' saying what is wrong with it)
+        self.leg_start: tuple[float, float] | None = None  # where the vehicle was enabled
 
-    def update(self, tel: Telemetry) -> dict[str, float]:
+    def on_update(self, p: Perception) -> Response:
         if not self.path:
-            return {}
+            return Response()
+        here = (p.y, p.z)
+        if self.leg_start is None:
+            self.leg_start = here
         while self.index < len(self.path) and \
-                math.dist(self.path[self.index], (tel.y, tel.z)) <= WAYPOINT_TOLERANCE:
+                math.dist(self.path[self.index], here) <= self.tolerance:
             self.leg_start = self.path[self.index]
             self.index += 1
         if self.index >= len(self.path):
             self.raise_event("done", waypoints=len(self.path))
             y, z = self.path[-1]
-            return {"y": y, "z": z}
-        y, z = lookahead(self.leg_start, self.path[self.index], (tel.y, tel.z))
-        return {"y": y, "z": z}
+        else:
+            y, z = lookahead(self.leg_start, self.path[self.index], here)
+        return Response(setpoints={"y": y, "z": z})
 
 
 def lookahead(a: tuple[float, float], b: tuple[float, float], p: tuple[float, float]
@@ -129,50 +93,47 @@ def lookahead(a: tuple[float, float], b: tuple[float, float], p: tuple[float, fl
     return a[0] + dy * s / length, a[1] + dz * s / length
 
 
-class AchieveHeadDist(Behaviour):
-    drives = ("x", "yaw")
+class AchieveHeadDist(motion.AchieveHeadDist):
+    """The point ``distance`` off the wall's foot along its normal (x) and the heading from
+    the normal (yaw); ``lost`` when the wall has not been seen for ``patience`` vehicle s."""
 
-    def start(self, tel: Telemetry) -> None:
-        self.good_since: float | None = None
-        self.since = tel.t
-
-    def update(self, tel: Telemetry) -> dict[str, float]:
-        seen = max(self.since, tel.wall_seen_at)
-        if tel.wall_distance is None or tel.wall_point is None:
-            self.good_since = None
-            if tel.t - seen > WALL_PATIENCE:
+    def on_update(self, p: Perception) -> Response:
+        a = perceived(p)
+        if a.wall_distance is None or a.wall_point is None or a.wall_heading is None \
+                or a.wall_normal is None:
+            self.good_since = None  # time without the wall does not count as settled
+            if a.t - max(self.seen_at, a.wall_seen_at) > self.patience:
                 self.raise_event("lost", reason="wall not tracked")
-            return {}
-        heading, distance = math.radians(self.param("heading", 0.0)), self.param("distance", 1.5)
-        normal = tel.yaw + tel.wall_bearing  # world direction of the wall's normal
-        e_head = wrap(tel.wall_bearing + heading)
-        if abs(tel.wall_distance - distance) < 0.1 and abs(e_head) < math.radians(2):
-            self.good_since = tel.t if self.good_since is None else self.good_since
-            if tel.t - self.good_since >= SETTLE:
+            return Response()
+        heading, distance = self.angle("heading", 0.0), self.param("distance", 1.5)
+        e_head = wrap(heading - a.wall_heading)
+        if abs(a.wall_distance - distance) < 0.1 and abs(e_head) < math.radians(2):
+            self.good_since = a.t if self.good_since is None else self.good_since
+            if a.t - self.good_since >= self.settle:
                 self.raise_event("achieved")
         else:
             self.good_since = None
-        return {"x": tel.wall_point[0] - distance * math.cos(normal), "yaw": normal + heading}
+        return Response(setpoints={"x": a.wall_point[0] - distance * math.cos(a.wall_normal),
+                                   "yaw": a.wall_normal + heading})
 
 
-class Surface(Behaviour):
-    drives = ("z",)
+class Surface(motion.Surface):
+    """ArduSub's SURFACE mode rises (the adapter switches to it): ``surfaced`` near the top."""
 
-    def update(self, tel: Telemetry) -> dict[str, float]:
-        if tel.z <= SURFACE_DEPTH:
-            self.raise_event("surfaced")
-        return {}
+    def on_update(self, p: Perception) -> Response:
+        super().on_update(p)  # 'surfaced' at the shared depth; its velocity is not asked for
+        return Response()
 
 
-class Alarms(Behaviour):
-    def update(self, tel: Telemetry) -> dict[str, float]:
-        for alarm in sorted(tel.alarms):
+class Alarms(sensing.Alarms):
+    """The alarms ArduSub latched from its STATUSTEXTs first, then the shared thresholds on the
+    internal barometer (a reading not sent is NaN: no alarm)."""
+
+    def on_update(self, p: Perception) -> Response:
+        for alarm in sorted(perceived(p).alarms):
             self.raise_event(alarm)
-        if tel.temperature is not None and tel.temperature > self.param("max_temperature", 50):
-            self.raise_event("overtemperature", temperature=tel.temperature)
-        if tel.pressure is not None and tel.pressure > self.param("max_pressure", 1.5):
-            self.raise_event("overpressure", pressure=tel.pressure)
-        return {}
+        return super().on_update(p)
 
 
-PRIORITY = ("Surface", "AchieveHeadDist", "WallInspection", "GoTo")  # as vehicle/coordinator
+ALL: tuple[type[Behaviour], ...] = (Surface, AchieveHeadDist, WallInspection, GoTo, Alarms)
+"""The behaviours the adapter runs itself (the others are commands or not mapped)."""

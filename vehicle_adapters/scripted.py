@@ -36,22 +36,43 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from .aal import ActionMessage, EventMessage
+from aal.messages import ActionMessage, EventMessage
+from diagnostics import MclError, Span
+
+Key = tuple[str | int, ...]  # where in the TOML document: ("at", 2, "time")
 
 
-class ScriptError(ValueError):
+class ScriptError(MclError, ValueError):
     """A scripted-vehicle file that cannot be used; the message says where and why (and
-    ``place``, ``hint``: the 1-based line and column, and what to do, when known)."""
+    ``place``, ``hint``: the 1-based line and column of a name the task libraries do not
+    declare, and what to do). Every error from :func:`load_script` carries its
+    ``file:line:col`` (:meth:`format`); ``str()`` keeps the text it always had."""
 
     def __init__(self, message: str, place: tuple[str, int, int] | None = None,
-                 hint: str = ""):
-        super().__init__(message)
-        self.place, self.hint = place, hint
+                 hint: str = "", *, key: Key = (), span: Span | None = None,
+                 detail: str = "", source_line: str = "", code: str = "script") -> None:
+        self.place, self.hint, self.key = place, hint, key
+        if span is None and place is not None:
+            span = Span(*place)
+        super().__init__(detail or message, span=span, hint=hint, source_line=source_line,
+                         code=code, text=message)
+
+    def located(self, path: str, text: str) -> ScriptError:
+        """This error with the place of its ``key`` in the file's ``text``."""
+        line, col = _key_place(text, self.key)
+        lines = text.split("\n")
+        detail = str(self).removeprefix(f"{path}: ")
+        return ScriptError(str(self), self.place, self.hint, key=self.key,
+                           span=Span(path, line, col), detail=detail,
+                           source_line=lines[line - 1] if 0 < line <= len(lines) else "")
 
 
 def _unknown(script: Script, line: int, col: int, message: str, hint: str) -> ScriptError:
+    lines = script.text.split("\n")
     return ScriptError(f"{script.path}:{line}:{col}: error: {message}\n  hint: {hint}",
-                       (script.path, line, col), hint)
+                       (script.path, line, col), hint, detail=message,
+                       source_line=lines[line - 1] if 0 < line <= len(lines) else "",
+                       code="script-unknown-name")
 
 
 @dataclass(frozen=True)
@@ -76,13 +97,19 @@ def load_script(path: str) -> Script:
             raw = f.read()
         doc = tomllib.loads(raw.decode("utf-8"))
     except FileNotFoundError:
-        raise ScriptError(f"{path}: no such file") from None
+        raise ScriptError(f"{path}: no such file", span=Span.of_file(path),
+                          detail="no such file") from None
     except tomllib.TOMLDecodeError as exc:
-        raise ScriptError(f"{path}: not valid TOML: {exc}") from None
+        raise _toml_error(path, raw.decode("utf-8"), exc) from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise ScriptError(f"{path}: cannot be read: {exc}") from None
-    script = parse_script(doc, path)
-    script.text = raw.decode("utf-8")
+        raise ScriptError(f"{path}: cannot be read: {exc}", span=Span.of_file(path),
+                          detail=f"cannot be read: {exc}") from None
+    text = raw.decode("utf-8")
+    try:
+        script = parse_script(doc, path)
+    except ScriptError as exc:
+        raise exc.located(path, text) from None
+    script.text = text
     base = os.path.dirname(path)
     script.tasks = [t if "/" not in t and not t.endswith(".tasks") else os.path.join(base, t)
                     for t in script.tasks]
@@ -94,34 +121,39 @@ def parse_script(doc: dict[str, Any], path: str = "<script>") -> Script:
     unknown = set(doc) - {"behaviours", "at", "tasks"}
     if unknown:
         raise ScriptError(f"{path}: unknown section(s) {sorted(unknown)}: "
-                          "use tasks = [...], [behaviours.NAME] and [[at]]")
+                          "use tasks = [...], [behaviours.NAME] and [[at]]",
+                          key=(sorted(unknown)[0],))
     tasks = doc.get("tasks", ["ictineu"])
     if isinstance(tasks, str):
         tasks = [tasks]
     if not isinstance(tasks, list) or not tasks or not all(
             isinstance(t, str) and t for t in tasks):
         raise ScriptError(f"{path}: tasks: must be a list of task libraries, e.g. "
-                          "tasks = [\"ictineu\", \"seabed.tasks\"]")
+                          "tasks = [\"ictineu\", \"seabed.tasks\"]", key=("tasks",))
     script.tasks = list(tasks)
     for name, table in (doc.get("behaviours") or {}).items():
         where = f"{path}: behaviours.{name}"
+        key: Key = ("behaviours", name)
         if not isinstance(table, dict):
-            raise ScriptError(f"{where}: must be a table")
+            raise ScriptError(f"{where}: must be a table", key=key)
         extra = set(table) - {"on_enable"}
         if extra:
-            raise ScriptError(f"{where}: unknown key(s) {sorted(extra)}: use on_enable")
+            raise ScriptError(f"{where}: unknown key(s) {sorted(extra)}: use on_enable",
+                              key=(*key, sorted(extra)[0]))
         spec = table.get("on_enable", [])
         items = spec if isinstance(spec, list) else [spec]
-        script.answers[name] = [_answer(item, f"{where}.on_enable") for item in items]
+        script.answers[name] = [_answer(item, f"{where}.on_enable", (*key, "on_enable"))
+                                for item in items]
     for i, item in enumerate(doc.get("at") or []):
         where = f"{path}: at[{i}]"
         if not isinstance(item, dict):
-            raise ScriptError(f"{where}: must be a table with time and event")
-        t = _number(item.get("time"), f"{where}.time")
+            raise ScriptError(f"{where}: must be a table with time and event", key=("at", i))
+        t = _number(item.get("time"), f"{where}.time", ("at", i, "time"))
         event = item.get("event")
         if not isinstance(event, str) or event.count(".") != 1 or not all(
                 p.isidentifier() for p in event.split(".")):
-            raise ScriptError(f"{where}.event: must be 'Source.name', e.g. 'Alarms.leak'")
+            raise ScriptError(f"{where}.event: must be 'Source.name', e.g. 'Alarms.leak'",
+                              key=("at", i, "event"))
         script.at.append((t, event, dict(item.get("data") or {})))
     return script
 
@@ -171,21 +203,86 @@ def _place(text: str, pattern: str, after: int = 0) -> tuple[int, int]:
     return 1, 1
 
 
-def _answer(item: Any, where: str) -> Answer:
+def _answer(item: Any, where: str, key: Key = ()) -> Answer:
     if not isinstance(item, dict):
-        raise ScriptError(f"{where}: must be {{ after = SECONDS, event = NAME }}")
+        raise ScriptError(f"{where}: must be {{ after = SECONDS, event = NAME }}", key=key)
     event = item.get("event")
     if not isinstance(event, str) or not event.isidentifier():
-        raise ScriptError(f"{where}.event: must be an event name such as 'reached'")
-    return Answer(_number(item.get("after", 0.0), f"{where}.after"), event,
+        raise ScriptError(f"{where}.event: must be an event name such as 'reached'",
+                          key=(*key, "event"))
+    return Answer(_number(item.get("after", 0.0), f"{where}.after", (*key, "after")), event,
                   dict(item.get("data") or {}))
 
 
-def _number(value: Any, where: str) -> float:
+def _number(value: Any, where: str, key: Key = ()) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0 \
             or value != value or value == float("inf"):
-        raise ScriptError(f"{where}: must be a number of seconds >= 0, got {value!r}")
+        raise ScriptError(f"{where}: must be a number of seconds >= 0, got {value!r}",
+                          key=key)
     return float(value)
+
+
+_TOML_AT = re.compile(r"\s*\(at line (\d+), column (\d+)\)$")
+
+
+def _toml_error(path: str, text: str, exc: tomllib.TOMLDecodeError) -> ScriptError:
+    """Invalid TOML: tomllib says the line and column at the end of its message."""
+    m = _TOML_AT.search(str(exc))
+    if m is None:  # "(at end of document)"
+        lines = text.split("\n")
+        line, col = len(lines), len(lines[-1]) + 1
+        reason = re.sub(r"\s*\(at end of document\)$", "", str(exc))
+    else:
+        line, col, reason = int(m.group(1)), int(m.group(2)), str(exc)[:m.start()]
+        lines = text.split("\n")
+    return ScriptError(f"{path}: not valid TOML: {exc}", span=Span(path, line, col),
+                       detail=f"not valid TOML: {reason}",
+                       source_line=lines[line - 1] if 0 < line <= len(lines) else "",
+                       hint="a scripted vehicle's file is TOML (https://toml.io), as "
+                            "docs/VEHICLES.md describes", code="toml")
+
+
+def _key_place(text: str, key: Key) -> tuple[int, int]:
+    """The 1-based line and column where the TOML ``key`` (("at", 2, "time"),
+    ("behaviours", "GoTo", "on_enable")) is written in ``text``; found key by key, each on or
+    after the line of the one before; (1, 1) when the first is not found."""
+    lines = text.split("\n")
+    line, col, i = 1, 1, 0
+    while i < len(key):
+        part = key[i]
+        if isinstance(part, int):  # an index not after an array name: skip it
+            i += 1
+            continue
+        name = re.escape(part)
+        if i + 1 < len(key) and isinstance(key[i + 1], int):  # the n-th [[name]]
+            found = _find(lines, rf"^\s*\[\[\s*(?:[\w-]+\.)*({name})\s*\]\]", line,
+                          nth=int(key[i + 1]))
+            i += 2
+        else:
+            found = None
+            for pattern in (rf"^\s*\[\s*(?:[\w-]+\.)*({name})\s*\]",  # [table.name]
+                            rf"(?:^|[{{,.\s])({name})\s*=",  # name = ..., {{ name = ... }}
+                            rf"\b({name})\b"):
+                found = _find(lines, pattern, line)
+                if found:
+                    break
+            i += 1
+        if found is None:
+            break
+        line, col = found
+    return line, col
+
+
+def _find(lines: list[str], pattern: str, start: int, nth: int = 0) -> tuple[int, int] | None:
+    """The line and column of group 1 of the ``nth`` match (from 0) on or after ``start``."""
+    regex = re.compile(pattern)
+    for number in range(max(start, 1), len(lines) + 1):
+        m = regex.search(lines[number - 1])
+        if m:
+            if nth == 0:
+                return number, m.start(1) + 1
+            nth -= 1
+    return None
 
 
 @dataclass

@@ -17,10 +17,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from diagnostics import Span
 from petri.net import ABORT, ABORTED, BEGIN, FAIL, INNER, OK, Action, Net, Origin
 
 from .. import ast
-from ..errors import Span
 
 if TYPE_CHECKING:
     from ..checker import Checked

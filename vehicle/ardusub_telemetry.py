@@ -1,4 +1,4 @@
-"""The telemetry of the ArduSub-like vehicle (:mod:`vehicle_adapters.ardusub`): one method a
+"""The telemetry of the ArduSub-like vehicle (:mod:`vehicle.ardusub`): one method a
 MAVLink message, and when each is due (:class:`Streams`, MAV_CMD_SET_MESSAGE_INTERVAL).
 
 Heartbeat. ``type`` MAV_TYPE_SUBMARINE, ``autopilot`` MAV_AUTOPILOT_ARDUPILOTMEGA, ``base_mode``
@@ -30,17 +30,16 @@ from __future__ import annotations
 
 import math
 import time
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 from pymavlink import mavutil
 
 import behaviours as bh
+from aal.mavlink import MODES, PRESSURE_TEXT
+from aal.signing import SigningState
 from behaviours.base import wrap
+from vehicle.stack import IctineuStack
 
-from .ardusub_protocol import MODES, PRESSURE_TEXT
-
-if TYPE_CHECKING:
-    from .ardusub import ArduSubVehicle
 
 mav = mavutil.mavlink  # MAVLink 2: ardusub sets MAVLINK20 before importing us
 
@@ -90,10 +89,29 @@ class Streams:
         return out
 
 
+class Autopilot(Protocol):
+    """What the telemetry reads of the vehicle it reports (:class:`vehicle.ardusub.ArduSubVehicle`),
+    so that this module need not import it (that module imports this one)."""
+
+    stack: IctineuStack
+    mode: int
+    armed: bool
+    failsafe: dict[str, bool]
+    signing: SigningState | None
+    _last_heartbeat: float
+
+    @property
+    def time_boot_ms(self) -> int: ...
+
+    def send(self, name: str, *args: Any, **kwargs: Any) -> None: ...
+
+    def alarms(self) -> dict[str, bool]: ...
+
+
 class Telemetry:
     """The messages of one vehicle, sent through its serialised ``send``."""
 
-    def __init__(self, vehicle: ArduSubVehicle) -> None:
+    def __init__(self, vehicle: Autopilot) -> None:
         self.v = vehicle
 
     def send(self, name: str) -> None:

@@ -11,17 +11,38 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any, Protocol
+
+from diagnostics import MclError, Span
 
 VERSION = 1
 ACTION_KINDS = ("enable", "disable", "configure")
 MAX_MESSAGE = 64 * 1024
 
 
-class InvalidMessage(ValueError):
-    """A message that does not follow the schema; says which field is wrong."""
+MESSAGE = "<message>"  # the file name of a message's place: <message>:line:col
+
+
+class InvalidMessage(MclError, ValueError):
+    """A message that does not follow the schema; says which field is wrong, and where in the
+    message's text it is (``<message>:line:col`` in :meth:`format`; ``str()`` is the reason)."""
+
+    def __init__(self, message: str, span: Span | None = None) -> None:
+        super().__init__(message, span=span, code="invalid-message", text=message)
+
+
+def _at(text: str | bytes, key: str) -> Span | None:
+    """Where the field ``key`` is written in a message's text (None if it is not)."""
+    if isinstance(text, bytes):
+        text = text.decode("utf-8", "replace")
+    m = re.search(rf'"{re.escape(key)}"\s*:', text)
+    if m is None:
+        return None
+    line = text.count("\n", 0, m.start()) + 1
+    return Span(MESSAGE, line, m.start() - (text.rfind("\n", 0, m.start()) + 1) + 1)
 
 
 @dataclass(frozen=True)
@@ -47,12 +68,14 @@ class ActionMessage:
     def from_json(text: str | bytes) -> ActionMessage:
         d = _load(text)
         _require(d, {"seq": int, "t": (int, float), "mission": str, "task": str, "kind": str,
-                     "behaviour": str, "params": dict})
+                     "behaviour": str, "params": dict}, text)
         if d["kind"] not in ACTION_KINDS:
-            raise InvalidMessage(f"action kind {d['kind']!r} is not one of {ACTION_KINDS}")
+            raise InvalidMessage(f"action kind {d['kind']!r} is not one of {ACTION_KINDS}",
+                                 _at(text, "kind"))
         run = d.get("run", "")
         if not isinstance(run, str):
-            raise InvalidMessage(f"field 'run' has the wrong type ({type(run).__name__})")
+            raise InvalidMessage(f"field 'run' has the wrong type ({type(run).__name__})",
+                                 _at(text, "run"))
         return ActionMessage(d["seq"], float(d["t"]), d["mission"], d["task"], d["kind"],
                              d["behaviour"], d["params"], run)
 
@@ -77,38 +100,45 @@ class EventMessage:
     @staticmethod
     def from_json(text: str | bytes) -> EventMessage:
         d = _load(text)
-        _require(d, {"seq": int, "t": (int, float), "source": str, "name": str, "data": dict})
+        _require(d, {"seq": int, "t": (int, float), "source": str, "name": str, "data": dict},
+                 text)
         for key in ("source", "name"):
             if not d[key].isidentifier():
-                raise InvalidMessage(f"event {key} {d[key]!r} is not a name")
+                raise InvalidMessage(f"event {key} {d[key]!r} is not a name", _at(text, key))
         return EventMessage(d["seq"], float(d["t"]), d["source"], d["name"], d["data"])
 
 
 def _load(text: str | bytes) -> dict[str, Any]:
     if len(text) > MAX_MESSAGE:
-        raise InvalidMessage(f"message of {len(text)} bytes is larger than {MAX_MESSAGE}")
+        raise InvalidMessage(f"message of {len(text)} bytes is larger than {MAX_MESSAGE}",
+                             Span.of_file(MESSAGE))
     try:
         d = json.loads(text)
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InvalidMessage(f"not JSON: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise InvalidMessage(f"not JSON: {exc}", Span(MESSAGE, exc.lineno, exc.colno)) from None
+    except UnicodeDecodeError as exc:
+        raise InvalidMessage(f"not JSON: {exc}", Span(MESSAGE, 1, exc.start + 1)) from None
     if not isinstance(d, dict):
-        raise InvalidMessage("not a JSON object")
+        raise InvalidMessage("not a JSON object", Span(MESSAGE, 1, 1))
     if d.get("v") != VERSION:
-        raise InvalidMessage(f"schema version {d.get('v')!r}, expected {VERSION}")
+        raise InvalidMessage(f"schema version {d.get('v')!r}, expected {VERSION}",
+                             _at(text, "v") or Span(MESSAGE, 1, 1))
     return d
 
 
-def _require(d: dict[str, Any], fields: dict[str, type | tuple[type, ...]]) -> None:
+def _require(d: dict[str, Any], fields: dict[str, type | tuple[type, ...]],
+             text: str | bytes = "") -> None:
     for key, types in fields.items():
         if key not in d:
-            raise InvalidMessage(f"field {key!r} is missing")
+            raise InvalidMessage(f"field {key!r} is missing", Span(MESSAGE, 1, 1))
         value = d[key]
         if isinstance(value, bool) or not isinstance(value, types):
-            raise InvalidMessage(f"field {key!r} has the wrong type ({type(value).__name__})")
+            raise InvalidMessage(f"field {key!r} has the wrong type ({type(value).__name__})",
+                                 _at(text, key))
         if isinstance(value, float) and not math.isfinite(value):
-            raise InvalidMessage(f"field {key!r} is not finite")
+            raise InvalidMessage(f"field {key!r} is not finite", _at(text, key))
     if d["seq"] < 0:
-        raise InvalidMessage("field 'seq' is negative")
+        raise InvalidMessage("field 'seq' is negative", _at(text, "seq"))
 
 
 @dataclass(frozen=True)

@@ -17,9 +17,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .. import ast
-from ..api import Compiled, compile_file, parse_params
-from ..errors import Diagnostic, MclError
+from diagnostics import Diagnostic, MclError, Span
+from mcl import ast
+from mcl.api import Compiled, compile_file, parse_params
 
 EXIT_OK, EXIT_PROPERTY, EXIT_INVALID, EXIT_INTERNAL, EXIT_UNDECIDED = 0, 1, 2, 3, 4
 SEVERITY = [EXIT_OK, EXIT_UNDECIDED, EXIT_PROPERTY, EXIT_INVALID, EXIT_INTERNAL]  # worst last
@@ -82,15 +82,15 @@ def _positive(text: str) -> int:
     return value
 
 
-class OutputError(Exception):
+class OutputError(MclError):
     """An output file that cannot be written (a directory, a missing folder, no permission):
     invalid input, reported on one line that starts with the file."""
 
     def __init__(self, path: str, option: str, reason: str):
         where = path or f"{option} ''"
-        super().__init__(f"{where}: error: cannot write it ({option}): {reason}\n"
-                         "  hint: give the path of a file in a folder that exists and that "
-                         "you may write to")
+        super().__init__(f"cannot write it ({option}): {reason}", span=Span.of_file(where),
+                         hint="give the path of a file in a folder that exists and that "
+                              "you may write to", code="unwritable-output")
 
 
 def write_output(path: str, option: str, write: Callable[[str], None]) -> None:
@@ -142,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv: list[str] | None, so_far: list[int]) -> int:
     args = _parser().parse_args(argv)
     fmt = "json" if args.json else (args.format or "text")
-    from ..duration import parse_limits
+    from mcl.duration import parse_limits
 
     try:
         args.limits = parse_limits(args.deadline, args.battery, args.reserve)
@@ -159,13 +159,13 @@ def _main(argv: list[str] | None, so_far: list[int]) -> int:
     for path in args.files:
         try:
             status, report = _one(path, args, fmt)
-        except MclError as exc:
-            status, report = EXIT_INVALID, _invalid(path, exc.diagnostics)
-            print(exc.format(), file=sys.stderr)
-        except OutputError as exc:
+        except OutputError as exc:  # before MclError: its report names the output file
             status, report = EXIT_INVALID, {"file": path, "status": "invalid",
                                             "message": str(exc).splitlines()[0]}
             print(exc, file=sys.stderr)
+        except MclError as exc:
+            status, report = EXIT_INVALID, _invalid(path, exc.diagnostics)
+            print(exc.format(), file=sys.stderr)
         except BrokenPipeError:
             raise
         except Exception as exc:  # a bug of ours: say so plainly, never a bare traceback
@@ -212,13 +212,15 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, 
     report = _summary(compiled)
     status = EXIT_OK
     if not args.no_verify:
-        verdict = _verify(compiled, args.method, args.max_markings)
+        from mcl.verification import verify_mission
+
+        verdict = verify_mission(compiled, args.method, max_markings=args.max_markings)
         report["verification"] = verdict.to_json()
         status = (EXIT_OK if verdict.ok else EXIT_PROPERTY if verdict.failed
                   else EXIT_UNDECIDED)
         report["status"] = ("verified" if verdict.ok else "property-fails" if verdict.failed
                             else "undecided")
-    from ..duration import check as check_durations
+    from mcl.duration import check as check_durations
 
     bounds = check_durations(compiled.checked, args.limits)
     report["duration"] = bounds.report
@@ -230,12 +232,6 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, 
         if args.limits.asked:
             print("\n".join([f"  FAIL {f}" for f in bounds.failures] + bounds.lines))
     return status, report
-
-
-def _verify(compiled: Compiled, method: str, max_markings: int = 5_000_000) -> Any:
-    from ..verification import verify_mission
-
-    return verify_mission(compiled, method, max_markings=max_markings)
 
 
 def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:

@@ -22,7 +22,14 @@ class Span:
     end_col: int = 0
 
     def __str__(self) -> str:
+        if self.line <= 0:  # the file as a whole (missing, unreadable, empty)
+            return self.file
         return f"{self.file}:{self.line}:{self.col}"
+
+    @classmethod
+    def of_file(cls, file: str) -> Span:
+        """The file as a whole: no line to point at (prints as just ``file``)."""
+        return cls(file, 0, 0)
 
 
 @dataclass(frozen=True)
@@ -75,15 +82,39 @@ class Source:
 
 
 class MclError(Exception):
-    """Raised for invalid user input; holds every diagnostic found (errors and warnings)."""
+    """The root of every error a user can cause: invalid input, with its place.
 
-    def __init__(self, diagnostics: list[Diagnostic] | Diagnostic):
-        self.diagnostics = [diagnostics] if isinstance(diagnostics, Diagnostic) else diagnostics
-        super().__init__(self.format())
+    Holds every diagnostic found (errors and warnings). Either give the diagnostics, or a plain
+    message and its place::
+
+        MclError([diagnostic, ...])
+        MclError("no such file", span=Span.of_file(path), hint="check the path")
+
+    ``str(exc)`` is :meth:`format` unless ``text`` is given: subclasses whose users compare
+    ``str(exc)`` keep their historic one-line text that way, while :meth:`format` prints
+    ``file:line:col: error: message``, the source line when known, and the hint.
+    """
+
+    def __init__(self, diagnostics: list[Diagnostic] | Diagnostic | str, *,
+                 span: Span | None = None, hint: str = "", code: str = "",
+                 source_line: str = "", text: str | None = None) -> None:
+        if isinstance(diagnostics, str):
+            diagnostics = Diagnostic("error", diagnostics, span, hint, source_line, code)
+        elif span is not None or hint or code or source_line:
+            raise TypeError("span, hint, code and source_line go with a message, "
+                            "not with diagnostics")
+        self.diagnostics = ([diagnostics] if isinstance(diagnostics, Diagnostic)
+                            else list(diagnostics))
+        super().__init__(self.format() if text is None else text)
 
     @property
     def errors(self) -> list[Diagnostic]:
         return [d for d in self.diagnostics if d.severity == "error"]
+
+    @property
+    def span(self) -> Span | None:
+        """The place of the first diagnostic (None: the error has no place)."""
+        return self.diagnostics[0].span if self.diagnostics else None
 
     def format(self) -> str:
         return "\n".join(d.format() for d in self.diagnostics)

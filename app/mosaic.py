@@ -13,8 +13,8 @@ import math
 import sys
 from pathlib import Path
 
-from .blending import MM_PER_PX
-from .images import SurveyError, find
+from mosaic.blending import MM_PER_PX
+from mosaic.images import SurveyError, find
 
 
 def _scale(text: str) -> float:
@@ -39,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-truth", action="store_true",
                    help="do not measure against the simulation's ground truth")
     args = p.parse_args(argv)
-    from .build import build, summary_lines, write
+    from mosaic.build import build, summary_lines, write
 
     try:
         folder = find(args.run)

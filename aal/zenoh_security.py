@@ -8,9 +8,9 @@ control: only the **player**'s identity (``--player-user``, ``--player-cn``) may
 session is opened, before any message flows.
 
 - :class:`Security` holds this side's credentials and, on the vehicle, who may do what.
-- :func:`add_arguments` adds the command-line options of one role (``vehicle``, ``player``,
-  ``observer``) to an argparse parser; :func:`from_args` reads them back and checks them (every
-  mistake is a ValueError whose message says what to do).
+- :func:`for_role` makes and checks the Security of one role (``vehicle``, ``player``,
+  ``observer``) from its settings (every mistake is a ValueError whose message says what to do;
+  the commands' options for them: ``app/zenoh_options.py``).
 - :func:`apply` writes them into a ``zenoh.Config`` (called by ``zenoh_config``);
   :func:`access_control` is the vehicle's ACL block (Zenoh 1.x ``access_control``).
 
@@ -21,7 +21,6 @@ files first so that a mistake is one clear line rather than a failure deep in Ze
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 from dataclasses import dataclass
@@ -38,9 +37,6 @@ ACTION_KEYS = ["mcl/*/aal/action"]
 STATUS_KEYS = ["mcl/*/mission/status"]
 PLAYER_TOKEN_KEYS = ["mcl/*/alive/player/**"]  # mcl/<v>/alive/player/<run>
 ALL_KEYS = ["mcl/**"]
-
-Container = argparse.ArgumentParser | argparse._ArgumentGroup
-
 
 @dataclass(frozen=True)
 class Security:
@@ -74,39 +70,16 @@ class Security:
         return self.usrpwd or self.tls
 
 
-# -- command line ---------------------------------------------------------------------------------
-def add_arguments(parser: Container, role: str) -> None:
-    """Add the security options of ``role`` (vehicle | player | observer) to ``parser``."""
+# -- one role's settings ------------------------------------------------------------------------
+def for_role(role: str, endpoint: str, *, user: str | None = None,
+             password_file: str | None = None, users_file: str | None = None,
+             player_user: str | None = None, player_cn: str | None = None,
+             tls_ca: str | None = None, tls_cert: str | None = None,
+             tls_key: str | None = None) -> Security:
+    """The Security of ``role`` on ``endpoint`` these settings describe, every file read and
+    checked; raises ValueError with a clear message (naming the command-line option)."""
     _check_role(role)
-    if role == "vehicle":
-        parser.add_argument("--users", metavar="FILE",
-                            help="accept only these users: one 'user:password' a line "
-                                 "(enables access control)")
-        parser.add_argument("--player-user", default=DEFAULT_PLAYER, metavar="NAME",
-                            help="the user allowed to put actions; every other user in "
-                                 f"--users only reads (default {DEFAULT_PLAYER})")
-        parser.add_argument("--player-cn", default=DEFAULT_PLAYER, metavar="NAME",
-                            help="with TLS: the certificate common name allowed to put "
-                                 f"actions (default {DEFAULT_PLAYER})")
-    else:
-        parser.add_argument("--user", metavar="NAME",
-                            help="authenticate to the vehicle as NAME (password from "
-                                 f"--password-file or ${PASSWORD_ENV})")
-        parser.add_argument("--password-file", metavar="FILE",
-                            help="the password of --user, on the file's first line")
-    parser.add_argument("--tls-ca", metavar="FILE",
-                        help="mutual TLS (tls/HOST:PORT endpoints): the CA certificate (PEM)")
-    parser.add_argument("--tls-cert", metavar="FILE",
-                        help="mutual TLS: this side's certificate (PEM), signed by --tls-ca")
-    parser.add_argument("--tls-key", metavar="FILE",
-                        help="mutual TLS: this side's private key (PEM)")
-
-
-def from_args(args: argparse.Namespace, role: str) -> Security:
-    """The Security the parsed options describe; raises ValueError with a clear message."""
-    _check_role(role)
-    tls = _tls_files(args)
-    endpoint = _endpoint(args)
+    tls = _tls_files(tls_ca, tls_cert, tls_key)
     if endpoint.startswith("tls/") and not tls:
         raise ValueError(f"the endpoint {endpoint} is TLS: give --tls-ca, --tls-cert and "
                          "--tls-key (see docs/ZENOH_SECURITY.md)")
@@ -115,10 +88,8 @@ def from_args(args: argparse.Namespace, role: str) -> Security:
                          "(the certificates would not be used)")
     ca, cert, key = tls or (None, None, None)
     if role == "vehicle":
-        player_user = _name(getattr(args, "player_user", None) or DEFAULT_PLAYER,
-                            "--player-user")
-        player_cn = _name(getattr(args, "player_cn", None) or DEFAULT_PLAYER, "--player-cn")
-        users_file = getattr(args, "users", None)
+        player_user = _name(player_user or DEFAULT_PLAYER, "--player-user")
+        player_cn = _name(player_cn or DEFAULT_PLAYER, "--player-cn")
         users: tuple[str, ...] = ()
         if users_file:
             users = read_users(users_file)
@@ -130,8 +101,6 @@ def from_args(args: argparse.Namespace, role: str) -> Security:
         return Security(users_file=users_path, users=users,
                         player_user=player_user, tls_ca=ca, tls_cert=cert, tls_key=key,
                         player_cn=player_cn)
-    user = getattr(args, "user", None)
-    password_file = getattr(args, "password_file", None)
     password = None
     if user is not None:
         user = _name(user, "--user")
@@ -152,17 +121,6 @@ def _check_role(role: str) -> None:
         raise ValueError(f"unknown role {role!r}: use one of {', '.join(ROLES)}")
 
 
-def _endpoint(args: argparse.Namespace) -> str:
-    """The Zenoh endpoint the command uses (``--zenoh`` or ``--vehicle zenoh:ENDPOINT``)."""
-    from .zenoh_link import DEFAULT_ENDPOINT  # here: zenoh_link imports this module
-
-    endpoint = getattr(args, "zenoh", None)
-    vehicle = getattr(args, "vehicle", None)
-    if not endpoint and isinstance(vehicle, str) and vehicle.startswith("zenoh:"):
-        endpoint = vehicle.partition(":")[2]
-    return str(endpoint or DEFAULT_ENDPOINT)
-
-
 def _name(name: str, option: str) -> str:
     if not name or name != name.strip() or ":" in name:
         raise ValueError(f"{option} {name!r}: a name must be non-empty, without ':' and "
@@ -170,18 +128,18 @@ def _name(name: str, option: str) -> str:
     return name
 
 
-def _tls_files(args: argparse.Namespace) -> tuple[Path, Path, Path] | None:
+def _tls_files(ca: str | None, cert: str | None, key: str | None
+               ) -> tuple[Path, Path, Path] | None:
     """The three PEM files, all checked, or None if no --tls-* option was given."""
-    given = {o: getattr(args, o.replace("-", "_"), None)
-             for o in ("tls-ca", "tls-cert", "tls-key")}
+    given = {"tls-ca": ca, "tls-cert": cert, "tls-key": key}
     if not any(given.values()):
         return None
     missing = [f"--{o}" for o, v in given.items() if not v]
     if missing:
         raise ValueError(f"mutual TLS needs --tls-ca, --tls-cert and --tls-key: "
                          f"{' and '.join(missing)} missing")
-    ca, cert, key = (_pem(f"--{o}", str(v)) for o, v in given.items())
-    return ca, cert, key
+    ca_pem, cert_pem, key_pem = (_pem(f"--{o}", str(v)) for o, v in given.items())
+    return ca_pem, cert_pem, key_pem
 
 
 def _pem(option: str, name: str) -> Path:

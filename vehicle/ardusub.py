@@ -1,4 +1,5 @@
-"""The simulated Ictineu served as an ArduSub-like MAVLink 2 vehicle (``mcl vehicle --mavlink``).
+"""The simulated Ictineu served as an ArduSub-like MAVLink 2 vehicle (``mcl vehicle --mavlink``,
+whose command line is in ``app/vehicle.py``).
 
     mcl vehicle --mavlink URL [--speed 10] [--seed 1] [--inject leak@600] [--no-wait]
                 [--gcs-timeout 3] [--pilot-timeout 3] [--signing-key FILE]
@@ -17,7 +18,7 @@ station it obeys is system 255 (ArduSub's ``SYSID_MYGCS``).
 
 Time. The simulated clock starts at the first HEARTBEAT from the ground station (at once with
 ``--no-wait``) and then runs at ``--speed`` times wall time, one stack tick (``DT`` = 0.05 s) at
-a time, as ``mcl vehicle --zenoh`` does (:mod:`vehicle_adapters.serve`). Every ``time_boot_ms``
+a time, as ``mcl vehicle --zenoh`` does (:mod:`vehicle.zenoh_server`). Every ``time_boot_ms``
 carries the simulated clock (ms since it started), so a ground station follows the vehicle's
 clock; telemetry rates are rates of that clock (as ArduPilot's SITL with a speed-up), at most one
 message of each kind per tick. HEARTBEAT also goes out at least once per wall second (also while
@@ -26,7 +27,7 @@ keeps up with ``--speed`` up to about 40 on a 2-core machine shared with the pla
 more, its clock falls behind wall time x speed (the player follows the clock it sends).
 
 Heartbeat, telemetry (rates, frames) and the sonar wall as DISTANCE_SENSOR: see
-:mod:`vehicle_adapters.ardusub_telemetry`.
+:mod:`vehicle.ardusub_telemetry`.
 
 Commands. Every COMMAND_LONG (or COMMAND_INT) for system 1 gets a COMMAND_ACK: MAV_CMD_DO_SET_MODE
 (param2 the mode number; SET_MODE messages too, acknowledged with command 11 as ArduPilot does),
@@ -63,7 +64,7 @@ As ArduSub's manual warns, any heartbeat from system 255 counts: MAVProxy routin
 and vehicle sends its own, so through MAVProxy (without required signing, which rejects its
 unsigned heartbeats) the pilot-input failsafe is the one that notices a player gone.
 
-Signing (:mod:`vehicle_adapters.signing`): ``--signing-key FILE`` or ``$MCL_MAVLINK_KEY``
+Signing (:mod:`aal.signing`): ``--signing-key FILE`` or ``$MCL_MAVLINK_KEY``
 (64 hex digits, or a passphrase hashed as MAVProxy's ``signing setup``) signs everything sent
 and rejects badly signed messages; ``--require-signing`` also rejects unsigned ones (except
 RADIO_STATUS, as ArduPilot). The counts go out with every HEARTBEAT as NAMED_VALUE_INT
@@ -74,19 +75,16 @@ rejected), and are printed at exit. The signing timestamp is kept in
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import io
 import logging
 import math
 import os
 import queue
-import signal
 import socket
-import sys
 import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable
 from typing import Any
 
 os.environ["MAVLINK20"] = "1"  # before pymavlink picks its dialect: MAVLink 2 only
@@ -94,12 +92,8 @@ os.environ["MAVLINK20"] = "1"  # before pymavlink picks its dialect: MAVLink 2 o
 from pymavlink import mavutil  # noqa: E402
 
 import behaviours as bh  # noqa: E402
-from behaviours.base import clamp, wrap  # noqa: E402
-from vehicle.stack import DT, IctineuStack, StackConfig, fault_argument  # noqa: E402
-
-from . import signing  # noqa: E402
-from .aal import ActionMessage  # noqa: E402
-from .ardusub_protocol import (  # noqa: E402
+from aal import signing  # noqa: E402
+from aal.mavlink import (  # noqa: E402
     GCS_SYSID,
     GCS_TEXT,
     LEAK_TEXT,
@@ -111,6 +105,10 @@ from .ardusub_protocol import (  # noqa: E402
     VEHICLE_SYSID,
     parse_url,
 )
+from aal.messages import ActionMessage  # noqa: E402
+from behaviours.base import clamp, to_degrees, wrap  # noqa: E402
+from vehicle.stack import DT, IctineuStack, StackConfig  # noqa: E402
+
 from .ardusub_telemetry import STREAMS, Streams, Telemetry  # noqa: E402
 
 log = logging.getLogger(__name__)
@@ -152,7 +150,7 @@ class Velocity(bh.Behaviour):
             c, s = math.cos(p.psi), math.sin(p.psi)
             vx, vy = c * vx + s * vy, -s * vx + c * vy
         if "yaw" in self.params:  # hold a heading rather than a rate
-            rate = clamp(0.4 * wrap(math.radians(self.param("yaw", 0.0)) - p.psi), 0.3)
+            rate = clamp(0.4 * wrap(self.angle("yaw", 0.0) - p.psi), 0.3)
         else:
             rate = self.param("yaw_rate", 0.0)
         return bh.Response({"x": vx, "y": vy, "z": vz, "yaw": rate})
@@ -422,7 +420,7 @@ class ArduSubVehicle:
             self._action("enable", "Surface", {})
         elif self.mode in HOLD_MODES:
             self._action("enable", "GoTo", {"x": p.x, "y": p.y, "z": p.z,
-                                            "yaw": math.degrees(p.psi), "tolerance": 0.0})
+                                            "yaw": to_degrees(p.psi), "tolerance": 0.0})
         elif self.mode in PILOT_MODES:
             self._action("enable", "Velocity", {"frame": "body"})
 
@@ -447,7 +445,7 @@ class ArduSubVehicle:
             params.update({k: v for k, v, b in zip(("vx", "vy", "vz"), velocity, vbits)
                            if not mask & b})
             if use_yaw:
-                params["yaw"] = math.degrees(yaw)
+                params["yaw"] = to_degrees(yaw)
             elif use_rate:
                 params["yaw_rate"] = yaw_rate
             if goto.active:
@@ -456,10 +454,10 @@ class ArduSubVehicle:
             return
         p = self.stack.perception()
         target = dict(goto.params) if goto.active else {
-            "x": p.x, "y": p.y, "z": p.z, "yaw": math.degrees(p.psi)}
+            "x": p.x, "y": p.y, "z": p.z, "yaw": to_degrees(p.psi)}
         target.update({k: v for k, v, b in zip("xyz", position, bits) if not mask & b})
         if use_yaw:
-            target["yaw"] = math.degrees(yaw)
+            target["yaw"] = to_degrees(yaw)
         target["tolerance"] = 0.0
         if self.stack.behaviours["Velocity"].active:
             self._action("disable", "Velocity", {})
@@ -519,74 +517,3 @@ class ArduSubVehicle:
                          f"accepted, {c['rejected_unsigned']} unsigned rejected, "
                          f"{c['rejected_bad']} badly signed rejected")
         return lines
-
-
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="mcl vehicle",
-        description="Serve the simulated Ictineu as an ArduSub-like MAVLink 2 vehicle.")
-    p.add_argument("--mavlink", required=True, metavar="URL",
-                   help="udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT or tcpin:HOST:PORT")
-    p.add_argument("--speed", type=float, default=10.0, help="times wall time (default 10)")
-    p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--inject", action="append", default=[], type=fault_argument,
-                   metavar="FAULT@SECONDS")
-    p.add_argument("--gcs-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
-                   help="ground-station failsafe after this long without its heartbeat "
-                        "(default 3)")
-    p.add_argument("--pilot-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
-                   help="pilot-input failsafe after this long without MANUAL_CONTROL while "
-                        "armed (default 3)")
-    p.add_argument("--no-wait", action="store_true",
-                   help="start the clock at once instead of at the first GCS heartbeat")
-    p.add_argument("--signing-key", metavar="FILE",
-                   help=f"MAVLink 2 signing key or passphrase (default ${signing.ENV_KEY})")
-    p.add_argument("--require-signing", action="store_true",
-                   help="reject unsigned messages (needs a key)")
-    p.add_argument("--log-level", default="WARNING")
-    return p
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    args = _parser().parse_args(sys.argv[1:] if argv is None else list(argv))
-    try:
-        url = check_url(args.mavlink)
-        if not (args.speed > 0 and math.isfinite(args.speed)):
-            raise ValueError(f"--speed {args.speed}: must be a positive number")
-        key = signing.load_key(args.signing_key)
-        if args.require_signing and key is None:
-            raise ValueError(f"--require-signing needs a key: --signing-key FILE or "
-                             f"${signing.ENV_KEY}")
-        for option, value in (("--gcs-timeout", args.gcs_timeout),
-                              ("--pilot-timeout", args.pilot_timeout)):
-            if not (value > 0 and math.isfinite(value)):
-                raise ValueError(f"{option} {value}: must be a positive number of seconds")
-        if args.log_level.upper() not in ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL"):
-            raise ValueError(f"--log-level {args.log_level}: use DEBUG, INFO, WARNING, ERROR "
-                             "or CRITICAL")
-    except ValueError as exc:  # SigningError is a ValueError
-        print(f"mcl vehicle: error: {exc}", file=sys.stderr)
-        return 2
-    logging.basicConfig(level=args.log_level.upper(),
-                        format="%(asctime)s vehicle %(levelname)s %(message)s")
-    stop, ready = threading.Event(), threading.Event()
-    for sig in (signal.SIGTERM, signal.SIGINT):
-        signal.signal(sig, lambda *_: stop.set())
-    vehicle = ArduSubVehicle(url, speed=args.speed, seed=args.seed, faults=args.inject,
-                             gcs_timeout=args.gcs_timeout, pilot_timeout=args.pilot_timeout,
-                             wait_for_gcs=not args.no_wait, signing_key=key,
-                             require_signing=args.require_signing, stop=stop, ready=ready)
-    announcer = threading.Thread(target=lambda: ready.wait() and print(
-        f"vehicle auv ready on {url}", flush=True), daemon=True)
-    announcer.start()
-    try:
-        vehicle.run()
-    except (OSError, signing.SigningError) as exc:
-        print(f"mcl vehicle: error: {args.mavlink}: {exc}", file=sys.stderr)
-        return 2
-    print("\n".join(vehicle.summary()), flush=True)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

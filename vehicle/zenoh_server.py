@@ -1,10 +1,10 @@
 """The vehicle side of the Zenoh link: the simulated Ictineu stack served over Zenoh.
 
-    python -m vehicle_adapters.serve --zenoh tcp/127.0.0.1:7447 [--name auv] [--speed 10]
-                                     [--seed 1] [--inject leak@600] [--player-timeout 3]
+    mcl vehicle --zenoh tcp/127.0.0.1:7447 [--name auv] [--speed 10] [--seed 1]
+                [--inject leak@600] [--player-timeout 3]
 
-(to become ``mcl vehicle --zenoh ENDPOINT``). It listens on the endpoint in peer mode
-(multicast scouting off, see :func:`vehicle_adapters.zenoh_link.zenoh_config`), declares the
+(its command line: ``app/vehicle.py``; here :func:`serve` and :class:`VehicleServer`). It listens on the endpoint in peer mode
+(multicast scouting off, see :func:`aal.zenoh.zenoh_config`), declares the
 liveliness token ``mcl/<v>/alive/vehicle``, takes actions from ``mcl/<v>/aal/action``
 (validated; an invalid one is logged and dropped), publishes the stack's events on
 ``mcl/<v>/aal/event``, its clock on ``mcl/<v>/telemetry/clock`` and telemetry (navigator
@@ -29,35 +29,28 @@ enabled is left on. A restarted vehicle process starts with every behaviour off.
 
 from __future__ import annotations
 
-import argparse
 import json
 import logging
-import math
 import queue
-import signal
-import sys
 import threading
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from typing import Any
 
 import zenoh
 
-from vehicle.stack import DT, IctineuStack, StackConfig, fault_argument
-
-from .aal import ActionMessage, InvalidMessage
-from . import capabilities, zenoh_security
-from .zenoh_security import Security
-from .zenoh_link import (
+from aal.messages import ActionMessage, InvalidMessage
+from aal.zenoh import (
     DEFAULT_ENDPOINT,
     LEASE_MS,
     close_session,
     keys,
-    option_error,
     payload_text,
     zenoh_config,
-    zenoh_error,
 )
+from aal.zenoh_security import Security
+from behaviours import capabilities
+from vehicle.stack import DT, IctineuStack, StackConfig
 
 log = logging.getLogger(__name__)
 
@@ -287,84 +280,3 @@ def serve(endpoint: str = DEFAULT_ENDPOINT, vehicle_name: str = "auv", speed: fl
                            **options)
     server.run()
     return server
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if any(a == "--mavlink" or a.startswith("--mavlink=") for a in argv):
-        from .ardusub import main as ardusub_main  # the ArduSub-like MAVLink vehicle
-
-        return ardusub_main(argv)
-    p = argparse.ArgumentParser(
-        prog="mcl vehicle", description="Serve the simulated Ictineu over Zenoh.",
-        epilog="For an ArduSub-like MAVLink vehicle instead: mcl vehicle --mavlink URL "
-               "(see 'mcl vehicle --mavlink URL --help' and docs/MAVLINK.md).")
-    p.add_argument("--zenoh", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
-                   help=f"endpoint to listen on (default {DEFAULT_ENDPOINT})")
-    p.add_argument("--name", default="auv", help="vehicle name in the keys (default auv)")
-    p.add_argument("--speed", type=float, default=10.0, help="times wall time (default 10)")
-    p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--inject", action="append", default=[], type=fault_argument,
-                   metavar="FAULT@SECONDS")
-    p.add_argument("--player-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
-                   help="surface after the player has been gone this long (default 3)")
-    p.add_argument("--no-wait", action="store_true",
-                   help="start the clock at once instead of when a player appears")
-    p.add_argument("--scouting", action="store_true",
-                   help="also be found by Zenoh's multicast scouting (off by default)")
-    p.add_argument("--log-level", default="WARNING")
-    zenoh_security.add_arguments(p, "vehicle")
-    args = p.parse_args(argv)
-    try:
-        security = zenoh_security.from_args(args, "vehicle")
-    except ValueError as exc:
-        p.error(str(exc))
-    problem = _check_options(args)
-    if problem:
-        print(problem, file=sys.stderr)
-        return 2
-    logging.basicConfig(level=args.log_level.upper(),
-                        format="%(asctime)s vehicle %(levelname)s %(message)s")
-    stop = threading.Event()
-    for sig in (signal.SIGTERM, signal.SIGINT):
-        signal.signal(sig, lambda *_: stop.set())
-    ready = threading.Event()
-    server = VehicleServer(args.zenoh, args.name, args.speed, args.seed, args.inject, stop,
-                           args.player_timeout, wait_for_player=not args.no_wait, ready=ready,
-                           security=security, scouting=args.scouting)
-    def announce() -> None:
-        if ready.wait():
-            try:
-                print(f"vehicle {args.name} ready on {args.zenoh}", flush=True)
-            except (OSError, ValueError):  # standard output closed: keep serving
-                pass
-
-    announcer = threading.Thread(target=announce, daemon=True)
-    announcer.start()
-    try:
-        server.run()
-    except zenoh.ZError as exc:
-        print(f"--zenoh {args.zenoh}: error: {zenoh_error(exc)}", file=sys.stderr)
-        return 2
-    on = sorted(b.name for b in server.stack.behaviours.values() if b.active)
-    print(f"vehicle {args.name} stopped after {server.stack.t:.1f} s of simulated time "
-          f"({server.actions} actions, {server.stale} stale)\n"
-          f"  behaviours on at exit: {', '.join(on) or 'none'}", flush=True)
-    return 0
-
-
-def _check_options(args: argparse.Namespace) -> str | None:
-    """An option that parses but means nothing: one line naming it (exit 2), else None."""
-    if problem := option_error(args.zenoh, args.name):
-        return problem
-    for option, value in (("--speed", args.speed), ("--player-timeout", args.player_timeout)):
-        if not (math.isfinite(value) and value > 0):
-            return f"{option} {value:g}: error: must be a positive number"
-    if args.log_level.upper() not in ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL"):
-        return (f"--log-level {args.log_level}: error: use DEBUG, INFO, WARNING, ERROR or "
-                "CRITICAL")
-    return None
-
-
-if __name__ == "__main__":
-    sys.exit(main())

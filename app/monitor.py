@@ -17,8 +17,8 @@ invalid options, 3 when ``--timeout`` ran out first.
 from __future__ import annotations
 
 import argparse
-import math
 import json
+import math
 import signal
 import sys
 import threading
@@ -209,7 +209,7 @@ def _open(zenoh: Any, config: Any, endpoint: str, timeout: float | None,
           stop: threading.Event) -> Any:
     """Open the client session, retrying while the vehicle is not there yet (bounded by
     ``timeout`` and ``stop``); None if it never came."""
-    from vehicle_adapters.zenoh_link import zenoh_error
+    from aal.zenoh import zenoh_error
 
     deadline = time.monotonic() + timeout if timeout else None
     said = False
@@ -231,7 +231,7 @@ def _open(zenoh: Any, config: Any, endpoint: str, timeout: float | None,
 
 
 def _check_options(args: argparse.Namespace) -> str | None:
-    from vehicle_adapters.zenoh_link import option_error
+    from aal.zenoh import option_error
 
     if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
         return f"--timeout {args.timeout:g}: error: must be a positive number of seconds"
@@ -239,8 +239,9 @@ def _check_options(args: argparse.Namespace) -> str | None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from vehicle_adapters import zenoh_security
-    from vehicle_adapters.zenoh_link import DEFAULT_ENDPOINT
+    from aal.zenoh import DEFAULT_ENDPOINT
+
+    from . import zenoh_options
 
     p = argparse.ArgumentParser(prog="mcl monitor",
                                 description="Watch a mission and its vehicle over Zenoh.")
@@ -256,10 +257,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="one line per change instead of a screen (default when not a terminal)")
     p.add_argument("--scouting", action="store_true",
                    help="also find the vehicle by Zenoh's multicast scouting (off by default)")
-    zenoh_security.add_arguments(p, "observer")
+    zenoh_options.add_arguments(p, "observer")
     args = p.parse_args(argv)
     try:
-        security = zenoh_security.from_args(args, "observer")
+        security = zenoh_options.from_args(args, "observer")
     except ValueError as exc:
         p.error(str(exc))
     problem = _check_options(args)
@@ -268,7 +269,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     import zenoh
 
-    from vehicle_adapters.zenoh_link import close_session, keys, payload_text, zenoh_config
+    from aal.zenoh import close_session, keys, payload_text, zenoh_config
 
     view = View(args.name, args.zenoh)
     k = keys(args.name)

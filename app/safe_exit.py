@@ -19,11 +19,10 @@ import sys
 from types import FrameType
 from typing import Any
 
-from vehicle_adapters.aal import Declaration
-
-from .. import ast, tasklib
-from ..api import Compiled
-from ..errors import Diagnostic, MclError, Source, file_error
+from aal.messages import Declaration
+from diagnostics import Diagnostic, MclError, Source, file_error
+from mcl import ast, tasklib
+from mcl.api import Compiled
 
 UNBOUNDED = 7200.0  # s: the default limit of a mission its timeouts do not bound
 MARGIN, SLACK = 0.10, 60.0  # the default limit: the bound + 10 % + 60 s
@@ -97,7 +96,7 @@ def max_time(compiled: Compiled, given: float | None) -> tuple[float, str]:
 def mission_bound(compiled: Compiled) -> float | None:
     """The longest the mission can last, proved from its timeouts (mcl/duration.py; None:
     they do not bound it)."""
-    from ..duration import analyse
+    from mcl.duration import analyse
 
     worst = analyse(compiled.checked).worst
     return worst if math.isfinite(worst) else None

@@ -34,6 +34,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from diagnostics import MclError, Span
+
 ENV_KEY = "MCL_MAVLINK_KEY"
 ENV_STATE_DIR = "MCL_STATE_DIR"
 EPOCH_2015 = 1420070400  # s: MAVLink signing timestamps count from 2015-01-01 UTC
@@ -41,17 +43,30 @@ TICKS_PER_SECOND = 100_000  # a signing timestamp tick is 10 µs
 SAVE_MARGIN = 60 * TICKS_PER_SECOND  # covers what is signed between two saves (>= 1 per tick)
 MSG_ID_RADIO_STATUS = 109  # may come unsigned even when signing is required (as ArduPilot)
 _HEX_KEY = re.compile(r"[0-9a-fA-F]{64}")
+_KEY_HINT = ("a signing key file holds 64 hexadecimal digits or a passphrase "
+             f"(or set ${ENV_KEY})")
 
 
-class SigningError(ValueError):
-    """A key that cannot be used: says which file or variable and why."""
+class SigningError(MclError, ValueError):
+    """A key that cannot be used: says which file or variable and why. ``str()`` is
+    ``WHERE: reason``; :meth:`format` gives ``WHERE: error: reason`` and a hint."""
+
+    def __init__(self, message: str, where: str | None = None, reason: str = "",
+                 hint: str = "") -> None:
+        span = Span.of_file(where) if where is not None else None
+        super().__init__(reason or message, span=span, hint=hint, code="signing-key",
+                         text=message)
+
+
+def _refuse(where: str, reason: str) -> SigningError:
+    return SigningError(f"{where}: {reason}", where, reason, _KEY_HINT)
 
 
 def key_from_text(text: str, where: str) -> bytes:
     """64 hex digits -> those 32 bytes; any other non-empty text -> SHA-256 of the passphrase."""
     text = text.strip()
     if not text:
-        raise SigningError(f"{where}: the signing key is empty")
+        raise _refuse(where, "the signing key is empty")
     if _HEX_KEY.fullmatch(text):
         return bytes.fromhex(text)
     return hashlib.sha256(text.encode("utf-8")).digest()
@@ -63,12 +78,12 @@ def load_key(path: str | None) -> bytes | None:
         try:
             text = Path(path).read_text(encoding="utf-8")
         except FileNotFoundError:
-            raise SigningError(f"{path}: no such signing key file") from None
+            raise _refuse(path, "no such signing key file") from None
         except IsADirectoryError:
-            raise SigningError(f"{path}: is a directory, not a signing key file") from None
+            raise _refuse(path, "is a directory, not a signing key file") from None
         except (OSError, UnicodeDecodeError) as exc:
             reason = getattr(exc, "strerror", None) or str(exc)
-            raise SigningError(f"{path}: cannot read the signing key: {reason}") from None
+            raise _refuse(path, f"cannot read the signing key: {reason}") from None
         return key_from_text(text, path)
     env = os.environ.get(ENV_KEY)
     if env is None:

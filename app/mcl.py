@@ -1,0 +1,62 @@
+"""``mcl``: the operator's command; each subcommand is one module of ``app/``.
+
+    mcl run MISSION.mcl [--vehicle KIND[:WHERE]] ...   app/run.py (kinds: app/vehicles/)
+    mcl replay RUN.jsonl MISSION.mcl                   app/replay.py
+    mcl check MISSION.mcl ...                          app/check.py (the same as mclc)
+    mcl vehicle --zenoh ENDPOINT | --mavlink URL ...   app/vehicle.py
+    mcl monitor --zenoh ENDPOINT ...                   app/monitor.py
+    mcl mosaic RUN.jsonl ...                           app/mosaic.py
+
+Each module's ``main(argv)`` takes what follows the subcommand and returns the exit status
+(README). A standard output closed under a command (``mcl ... | head -1``) ends it quietly.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Callable
+from typing import cast
+
+COMMANDS = {  # subcommand: (its module, its line in 'mcl --help'; None: not listed there)
+    "run": ("app.run", "run a mission on a vehicle"),
+    "vehicle": ("app.vehicle", "serve the simulated vehicle over Zenoh or MAVLink: mcl vehicle "
+                "--zenoh ENDPOINT | --mavlink URL [--speed X] [--seed N] [--inject FAULT@S]"),
+    "monitor": ("app.monitor", "watch a mission and its vehicle over Zenoh: mcl monitor "
+                "--zenoh ENDPOINT [--until-end]"),
+    "mosaic": ("app.mosaic", "make the photomosaic and coverage map of a run's images: "
+               "mcl mosaic RUN.jsonl [--scale MM_PER_PX]"),
+    "replay": ("app.replay", "check that a run log is a legal run of the mission"),
+    "check": ("app.check", None),
+}
+
+
+def _parser() -> argparse.ArgumentParser:
+    """What ``mcl --help`` and ``mcl`` without a known subcommand say."""
+    p = argparse.ArgumentParser(prog="mcl", description="Run MCL missions and check their logs.")
+    sub = p.add_subparsers(dest="command", required=True)
+    for name, (_, line) in COMMANDS.items():
+        if line is not None:
+            sub.add_parser(name, help=line)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else list(argv)
+    try:
+        if args and args[0] in COMMANDS:
+            module = importlib.import_module(COMMANDS[args[0]][0])
+            command = cast(Callable[[list[str]], int], module.main)
+            return command(args[1:])
+        _parser().parse_args(args)  # --help, or a usage error (exit 2)
+        return 2
+    except BrokenPipeError:
+        from .mclc import stdout_closed
+
+        stdout_closed()
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

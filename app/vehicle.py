@@ -1,0 +1,210 @@
+"""``mcl vehicle``: serve the simulated Ictineu to a player in another process.
+
+    mcl vehicle --zenoh ENDPOINT [--name auv] [--speed 10] [--seed 1] [--inject leak@600] ...
+    mcl vehicle --mavlink URL [--speed 10] [--seed 1] [--inject leak@600] ...
+
+Over Zenoh the server is :mod:`vehicle.zenoh_server` (docs/ZENOH.md); over MAVLink 2 the
+ArduSub-like vehicle of :mod:`vehicle.ardusub` (docs/MAVLINK.md). Both print ``vehicle auv
+ready on ...`` when ready and their summary when stopped (SIGTERM, SIGINT). Exit status: 0
+stopped, 2 invalid input (one line naming the option).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import signal
+import sys
+import threading
+from collections.abc import Sequence
+
+from . import zenoh_options
+
+LOG_LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``mcl vehicle ARGS`` (``argv``: what follows ``vehicle``)."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if any(a == "--mavlink" or a.startswith("--mavlink=") for a in args):
+        return mavlink_main(args)
+    return zenoh_main(args)
+
+
+def fault_argument(text: str) -> tuple[str, float]:
+    """``--inject FAULT@SECONDS``: a bad fault is a usage error, not a traceback."""
+    from vehicle.stack import parse_fault
+
+    try:
+        return parse_fault(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _stop_on_signals() -> threading.Event:
+    stop = threading.Event()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: stop.set())
+    return stop
+
+
+# -- over Zenoh ------------------------------------------------------------------------------------
+def _zenoh_parser() -> argparse.ArgumentParser:
+    from aal.zenoh import DEFAULT_ENDPOINT
+
+    p = argparse.ArgumentParser(
+        prog="mcl vehicle", description="Serve the simulated Ictineu over Zenoh.",
+        epilog="For an ArduSub-like MAVLink vehicle instead: mcl vehicle --mavlink URL "
+               "(see 'mcl vehicle --mavlink URL --help' and docs/MAVLINK.md).")
+    p.add_argument("--zenoh", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
+                   help=f"endpoint to listen on (default {DEFAULT_ENDPOINT})")
+    p.add_argument("--name", default="auv", help="vehicle name in the keys (default auv)")
+    p.add_argument("--speed", type=float, default=10.0, help="times wall time (default 10)")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--inject", action="append", default=[], type=fault_argument,
+                   metavar="FAULT@SECONDS")
+    p.add_argument("--player-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
+                   help="surface after the player has been gone this long (default 3)")
+    p.add_argument("--no-wait", action="store_true",
+                   help="start the clock at once instead of when a player appears")
+    p.add_argument("--scouting", action="store_true",
+                   help="also be found by Zenoh's multicast scouting (off by default)")
+    p.add_argument("--log-level", default="WARNING")
+    zenoh_options.add_arguments(p, "vehicle")
+    return p
+
+
+def zenoh_main(argv: list[str]) -> int:
+    import zenoh
+
+    from aal.zenoh import zenoh_error
+    from vehicle import zenoh_server
+
+    p = _zenoh_parser()
+    args = p.parse_args(argv)
+    try:
+        security = zenoh_options.from_args(args, "vehicle")
+    except ValueError as exc:
+        p.error(str(exc))
+    problem = _zenoh_problem(args)
+    if problem:
+        print(problem, file=sys.stderr)
+        return 2
+    logging.basicConfig(level=args.log_level.upper(),
+                        format="%(asctime)s vehicle %(levelname)s %(message)s")
+    stop = _stop_on_signals()
+    ready = threading.Event()
+    server = zenoh_server.VehicleServer(
+        args.zenoh, args.name, args.speed, args.seed, args.inject, stop, args.player_timeout,
+        wait_for_player=not args.no_wait, ready=ready, security=security,
+        scouting=args.scouting)
+
+    def announce() -> None:
+        if ready.wait():
+            try:
+                print(f"vehicle {args.name} ready on {args.zenoh}", flush=True)
+            except (OSError, ValueError):  # standard output closed: keep serving
+                pass
+
+    threading.Thread(target=announce, daemon=True).start()
+    try:
+        server.run()
+    except zenoh.ZError as exc:
+        print(f"--zenoh {args.zenoh}: error: {zenoh_error(exc)}", file=sys.stderr)
+        return 2
+    on = sorted(b.name for b in server.stack.behaviours.values() if b.active)
+    print(f"vehicle {args.name} stopped after {server.stack.t:.1f} s of simulated time "
+          f"({server.actions} actions, {server.stale} stale)\n"
+          f"  behaviours on at exit: {', '.join(on) or 'none'}", flush=True)
+    return 0
+
+
+def _zenoh_problem(args: argparse.Namespace) -> str | None:
+    """An option that parses but means nothing: one line naming it (exit 2), else None."""
+    from aal.zenoh import option_error
+
+    if problem := option_error(args.zenoh, args.name):
+        return problem
+    for option, value in (("--speed", args.speed), ("--player-timeout", args.player_timeout)):
+        if not (math.isfinite(value) and value > 0):
+            return f"{option} {value:g}: error: must be a positive number"
+    if args.log_level.upper() not in LOG_LEVELS:
+        return (f"--log-level {args.log_level}: error: use DEBUG, INFO, WARNING, ERROR or "
+                "CRITICAL")
+    return None
+
+
+# -- over MAVLink 2 --------------------------------------------------------------------------------
+def _mavlink_parser() -> argparse.ArgumentParser:
+    from aal.signing import ENV_KEY
+
+    p = argparse.ArgumentParser(
+        prog="mcl vehicle",
+        description="Serve the simulated Ictineu as an ArduSub-like MAVLink 2 vehicle.")
+    p.add_argument("--mavlink", required=True, metavar="URL",
+                   help="udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT or tcpin:HOST:PORT")
+    p.add_argument("--speed", type=float, default=10.0, help="times wall time (default 10)")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--inject", action="append", default=[], type=fault_argument,
+                   metavar="FAULT@SECONDS")
+    p.add_argument("--gcs-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
+                   help="ground-station failsafe after this long without its heartbeat "
+                        "(default 3)")
+    p.add_argument("--pilot-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
+                   help="pilot-input failsafe after this long without MANUAL_CONTROL while "
+                        "armed (default 3)")
+    p.add_argument("--no-wait", action="store_true",
+                   help="start the clock at once instead of at the first GCS heartbeat")
+    p.add_argument("--signing-key", metavar="FILE",
+                   help=f"MAVLink 2 signing key or passphrase (default ${ENV_KEY})")
+    p.add_argument("--require-signing", action="store_true",
+                   help="reject unsigned messages (needs a key)")
+    p.add_argument("--log-level", default="WARNING")
+    return p
+
+
+def mavlink_main(argv: list[str]) -> int:
+    from aal import signing
+    from vehicle import ardusub
+
+    args = _mavlink_parser().parse_args(argv)
+    try:
+        url = ardusub.check_url(args.mavlink)
+        if not (args.speed > 0 and math.isfinite(args.speed)):
+            raise ValueError(f"--speed {args.speed}: must be a positive number")
+        key = signing.load_key(args.signing_key)
+        if args.require_signing and key is None:
+            raise ValueError(f"--require-signing needs a key: --signing-key FILE or "
+                             f"${signing.ENV_KEY}")
+        for option, value in (("--gcs-timeout", args.gcs_timeout),
+                              ("--pilot-timeout", args.pilot_timeout)):
+            if not (value > 0 and math.isfinite(value)):
+                raise ValueError(f"{option} {value}: must be a positive number of seconds")
+        if args.log_level.upper() not in LOG_LEVELS:
+            raise ValueError(f"--log-level {args.log_level}: use DEBUG, INFO, WARNING, ERROR "
+                             "or CRITICAL")
+    except (ValueError, signing.SigningError) as exc:
+        print(f"mcl vehicle: error: {exc}", file=sys.stderr)
+        return 2
+    logging.basicConfig(level=args.log_level.upper(),
+                        format="%(asctime)s vehicle %(levelname)s %(message)s")
+    stop, ready = _stop_on_signals(), threading.Event()
+    vehicle = ardusub.ArduSubVehicle(
+        url, speed=args.speed, seed=args.seed, faults=args.inject,
+        gcs_timeout=args.gcs_timeout, pilot_timeout=args.pilot_timeout,
+        wait_for_gcs=not args.no_wait, signing_key=key, require_signing=args.require_signing,
+        stop=stop, ready=ready)
+    threading.Thread(target=lambda: ready.wait() and print(
+        f"vehicle auv ready on {url}", flush=True), daemon=True).start()
+    try:
+        vehicle.run()
+    except (OSError, signing.SigningError) as exc:
+        print(f"mcl vehicle: error: {args.mavlink}: {exc}", file=sys.stderr)
+        return 2
+    print("\n".join(vehicle.summary()), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
