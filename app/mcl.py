@@ -19,7 +19,7 @@ import sys
 from collections.abc import Callable
 from typing import cast
 
-COMMANDS = {  # subcommand: (its module, its line in 'mcl --help'; None: not listed there)
+COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
     "run": ("app.run", "run a mission on a vehicle"),
     "vehicle": ("app.vehicle", "serve the simulated vehicle over Zenoh or MAVLink: mcl vehicle "
                 "--zenoh ENDPOINT | --mavlink URL [--speed X] [--seed N] [--inject FAULT@S]"),
@@ -28,7 +28,8 @@ COMMANDS = {  # subcommand: (its module, its line in 'mcl --help'; None: not lis
     "mosaic": ("app.mosaic", "make the photomosaic and coverage map of a run's images: "
                "mcl mosaic RUN.jsonl [--scale MM_PER_PX]"),
     "replay": ("app.replay", "check that a run log is a legal run of the mission"),
-    "check": ("app.check", None),
+    "check": ("app.check", "compile and verify missions, as mclc does: mcl check MISSION.mcl... "
+              "[mclc's options]"),
 }
 
 
@@ -37,8 +38,7 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="mcl", description="Run MCL missions and check their logs.")
     sub = p.add_subparsers(dest="command", required=True)
     for name, (_, line) in COMMANDS.items():
-        if line is not None:
-            sub.add_parser(name, help=line)
+        sub.add_parser(name, help=line)
     return p
 
 

@@ -232,13 +232,19 @@ def _report_survey(stack: IctineuStack, log_path: Path, name: str, out: Any) -> 
     s = stack.survey.summary()
     plot = log_path.with_suffix(".svg")
     plot.write_text(stack.survey.svg(name), encoding="utf-8")
-    out.say(f"  path {s['path_length_m']} m; wall imaged {s['wall_area_imaged_m2']} m² in "
-            f"{s['images']} images, {100 * s['share_seen_twice']:.0f} % of it in two or more")
-    out.say(f"  navigator error {s['navigator_rms_m']} m RMS (USBL fixes {s['usbl_fixes']}, "
-            f"{s['usbl_rejected']} rejected); wall tracker error {s['wall_distance_rms_m']} m "
-            f"and {s['wall_heading_rms_deg']} deg RMS during the survey")
-    out.say(f"  trajectory plot: {plot}")
     seabed = stack.seabed
+    # the wall lines only for a run that saw the wall (not a seabed run, nor a dive)
+    wall = s["wall_area_imaged_m2"] > 0 or not math.isnan(s["wall_distance_rms_m"])
+    if wall:
+        out.say(f"  path {s['path_length_m']} m; wall imaged {s['wall_area_imaged_m2']} m² in "
+                f"{s['images']} images, {100 * s['share_seen_twice']:.0f} % of it in two or more")
+    else:
+        out.say(f"  path {s['path_length_m']} m")
+    out.say(f"  navigator error {s['navigator_rms_m']} m RMS (USBL fixes {s['usbl_fixes']}, "
+            f"{s['usbl_rejected']} rejected)" + (
+                f"; wall tracker error {s['wall_distance_rms_m']} m and "
+                f"{s['wall_heading_rms_deg']} deg RMS during the survey" if wall else ""))
+    out.say(f"  trajectory plot: {plot}")
     if seabed.report():  # the seabed trackers' figures: docs/SEABED.md
         seabed.finish(stack.t)
         for line in seabed.report():

@@ -100,14 +100,7 @@ def zenoh_main(argv: list[str]) -> int:
         wait_for_player=not args.no_wait, ready=ready, security=security,
         scouting=args.scouting)
 
-    def announce() -> None:
-        if ready.wait():
-            try:
-                print(f"vehicle {args.name} ready on {args.zenoh}", flush=True)
-            except (OSError, ValueError):  # standard output closed: keep serving
-                pass
-
-    threading.Thread(target=announce, daemon=True).start()
+    _announce(ready, f"vehicle {args.name} ready on {args.zenoh}")
     try:
         server.run()
     except zenoh.ZError as exc:
@@ -195,8 +188,7 @@ def mavlink_main(argv: list[str]) -> int:
         gcs_timeout=args.gcs_timeout, pilot_timeout=args.pilot_timeout,
         wait_for_gcs=not args.no_wait, signing_key=key, require_signing=args.require_signing,
         stop=stop, ready=ready)
-    threading.Thread(target=lambda: ready.wait() and print(
-        f"vehicle auv ready on {url}", flush=True), daemon=True).start()
+    _announce(ready, f"vehicle auv ready on {url}")
     try:
         vehicle.run()
     except (OSError, signing.SigningError) as exc:
@@ -204,6 +196,19 @@ def mavlink_main(argv: list[str]) -> int:
         return 2
     print("\n".join(vehicle.summary()), flush=True)
     return 0
+
+
+def _announce(ready: threading.Event, line: str) -> None:
+    """Print ``line`` once the vehicle is ready, from a thread of its own; a closed standard
+    output (``mcl vehicle ... | head -1``) does not stop the vehicle nor print a traceback."""
+    def announce() -> None:
+        ready.wait()
+        try:
+            print(line, flush=True)
+        except (OSError, ValueError):  # standard output closed: keep serving
+            pass
+
+    threading.Thread(target=announce, name="announce", daemon=True).start()
 
 
 if __name__ == "__main__":

@@ -14,7 +14,7 @@ one ``behaviour`` statement per behaviour (:meth:`Behaviour.statement`) and one 
 behaviour whose only action enables it with every parameter the class takes: that is how a
 task library says which parameters a behaviour takes (the kinds and ranges of the parameters
 are the mission's task library's, not the vehicle's, so each is declared a ``number``).
-tests/test_registry.py checks that the shipped task libraries agree with the registry.
+tests/behaviours/test_registry.py checks that the shipped task libraries agree with the registry.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The one registry of behaviours: name -> class, each class declaring its ``name``, the degrees
 of freedom it ``drives``, the ``parameters`` it takes, the ``events`` it raises and its
 ``priority`` in the coordinator (behaviours/base.py). The task libraries are checked against it
-(tests/test_registry.py), every vehicle declares from it (behaviours/capabilities.py), the
+(tests/behaviours/test_registry.py), every vehicle declares from it (behaviours/capabilities.py), the
 coordinator ranks by it, the simulated stack runs one of each.
 
 Registering a behaviour is one line below (docs/EXTENDING.md, "Add a behaviour")::

@@ -54,7 +54,7 @@ a run reaches. Bounds are exact Python integers, ``math.inf`` when there is none
 
 The markings found are exactly those the time Petri net reaches; a
 firing sequence of the player, with any timing of the events, is one of its runs
-(tests/test_timed.py checks it on random missions).
+(tests/petri/test_timed.py checks it on random missions).
 """
 
 from __future__ import annotations

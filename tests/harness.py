@@ -1,5 +1,5 @@
 """The trace harness shared by the tests of the player, the runner, the in-process adapter,
-the run log and replay (tests/test_player.py, test_runner.py, test_inprocess.py,
+the run log and replay (tests/petri/test_player.py, test_runner.py, test_inprocess.py,
 test_runlog.py, test_replay.py).
 
 Trace tests in the py_trees style: each test writes the trace it expects *before* driving the

@@ -474,7 +474,7 @@ def any_missions(draw: st.DrawFn) -> ast.Mission:
     return ast.Mission(draw(st.one_of(st.none(), NAMES)), body, params)
 
 
-# -- custom task libraries: degrees of freedom shared, latches, watchers (tests/test_routes.py)
+# -- custom task libraries: degrees of freedom shared, latches, watchers (tests/mcl/test_routes.py)
 ROUTE_DOFS = ("x", "z", "yaw")
 
 

@@ -74,7 +74,7 @@ class NavigatorNoise:
     update is called without R (Table I)."""
 
     # n of eq. 3-5: 1 sigma of each acceleration averaged over one second (m/s^2, rad/s^2);
-    # tuned on the simulated survey (tests/test_navigator.py): NEES about half its dimension
+    # tuned on the simulated survey (tests/vehicle/test_navigator.py): NEES about half its dimension
     accel_std: tuple[float, float, float, float] = (0.05, 0.05, 0.05, 0.02)
     # the same without the DVL: what the thrusters can do (44 N on 90-120 kg, 8.8 N m)
     unaided_accel_std: tuple[float, float, float, float] = (0.3, 0.3, 0.3, 0.05)

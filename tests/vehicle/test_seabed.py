@@ -17,7 +17,7 @@ from vehicle.downward_camera import DownwardCamera
 from vehicle.seabed import LaidLine, default_scene
 from vehicle.stack import IctineuStack, StackConfig, parse_fault
 
-from .support import REPO, budget, cli
+from tests.support import REPO, budget, cli
 
 CAM = DownwardCamera()
 

@@ -38,7 +38,7 @@ from aal.zenoh import keys, zenoh_config  # noqa: E402
 from vehicle_adapters.zenoh_link import ZenohVehicle  # noqa: E402
 from aal.zenoh_security import Security  # noqa: E402
 
-from .support import (  # noqa: E402
+from tests.support import (  # noqa: E402
     BIN, REPO, TOLERANT_LEASE_MS, budget, cli, free_endpoint, started)
 
 SPEED = 50.0

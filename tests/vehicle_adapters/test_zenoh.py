@@ -32,7 +32,7 @@ from vehicle_adapters.inprocess import InProcess  # noqa: E402
 from aal.zenoh import LEASE_MS, keys, zenoh_config  # noqa: E402
 from vehicle_adapters.zenoh_link import ZenohVehicle  # noqa: E402
 
-from .support import (  # noqa: E402
+from tests.support import (  # noqa: E402
     MISSIONS, REPO, TOLERANT_LEASE_MS, budget, free_endpoint, started)
 
 DAM = str(MISSIONS / "dam_inspection.mcl")

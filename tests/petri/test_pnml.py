@@ -18,7 +18,7 @@ from petri.pnml import PnmlError, read_pnml, write_pnml
 
 pytestmark = pytest.mark.filterwarnings("ignore:the Petri net has been imported")
 
-MCC = Path(__file__).resolve().parents[2] / "shared" / "mcc"
+MCC = Path(__file__).resolve().parents[3] / "shared" / "mcc"
 NS = 'xmlns="http://www.pnml.org/version-2009/grammar/pnml"'
 PT = 'type="http://www.pnml.org/version-2009/grammar/ptnet"'
 
@@ -265,7 +265,7 @@ def test_several_nets(tmp_path: Path) -> None:
 def run_report(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "app.pnml_report", *args],
                           capture_output=True, text=True, timeout=300, check=False,
-                          cwd=Path(__file__).resolve().parents[1], stdin=subprocess.DEVNULL)
+                          cwd=Path(__file__).resolve().parents[2], stdin=subprocess.DEVNULL)
 
 
 def test_cli_reports_a_bad_file_with_its_position(tmp_path: Path) -> None:

@@ -17,7 +17,7 @@ from petri.net import Net
 from petri.pnml import read_pnml
 from petri.pnml_report import analyse
 
-MCC = Path(__file__).resolve().parents[2] / "shared" / "mcc"
+MCC = Path(__file__).resolve().parents[3] / "shared" / "mcc"
 pytestmark = pytest.mark.skipif(not (MCC / "ORACLE.tsv").is_file(),
                                 reason=f"{MCC} is absent: the contest models are not available")
 

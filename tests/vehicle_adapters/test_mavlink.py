@@ -38,7 +38,7 @@ from vehicle_adapters.inprocess import InProcess
 from vehicle_adapters.mavlink_link import MODES, MavlinkVehicle, mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: I001  (MAVLink 2 is set)
 
-from .support import BIN, MISSIONS, REPO, budget, end, free_udp_port, started, stop
+from tests.support import BIN, MISSIONS, REPO, budget, end, free_udp_port, started, stop
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
 SPEED = 100.0  # the dam mission lasts ~1200 s of simulated time: ~15 s of wall time here

@@ -11,7 +11,7 @@ from petri.status import MissionStatus, task_calls
 from vehicle.stack import IctineuStack, StackConfig, parse_fault
 from vehicle_adapters.inprocess import InProcess
 
-from .support import MISSIONS
+from tests.support import MISSIONS
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
 

@@ -28,7 +28,7 @@ from pymavlink import mavutil  # noqa: E402
 from aal import signing  # noqa: E402
 from vehicle import ardusub  # noqa: E402
 
-from .support import REPO, budget, first_line, free_udp_port  # noqa: E402
+from tests.support import REPO, budget, first_line, free_udp_port  # noqa: E402
 
 mav = mavutil.mavlink
 WAIT = budget(3.0)  # wall s: the longest any single wait may take before the test fails

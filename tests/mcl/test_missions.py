@@ -20,7 +20,7 @@ from diagnostics import Source
 from petri.verify import verify
 from tests.support import MISSIONS, cli
 
-GOLDEN = Path(__file__).parent / "golden"
+GOLDEN = Path(__file__).parents[1] / "golden"
 FILES = sorted(MISSIONS.glob("*.mcl"))
 
 

@@ -1,6 +1,6 @@
 """A reported violation is real: its counterexample, fed to the player, reproduces it.
 
-Random missions over tasks that drive degrees of freedom (tests/test_structural.py's library)
+Random missions over tasks that drive degrees of freedom (tests/mcl/test_structural.py's library)
 are verified explicitly; for every DOF conflict or behaviour left on that the verifier
 reports, its shortest firing sequence is fired on the real-time player step by step, and the
 player — which tracks behaviours by the actions it sends, not by the net's places — must show
@@ -19,7 +19,7 @@ from mcl.api import compile_source
 from diagnostics import Source
 from petri.player import Player
 from petri.verify import verify
-from tests.test_structural import LIBRARY, blocks
+from tests.mcl.test_structural import LIBRARY, blocks
 
 COUNTS = {"checked": 0, "shared": 0, "lassos": 0}
 

@@ -32,7 +32,7 @@ from aal.messages import ActionMessage
 from vehicle_adapters.inprocess import InProcess
 from vehicle_adapters.scripted import ScriptedVehicle, parse_script
 
-from .support import BIN, MISSIONS, REPO, end, free_endpoint, free_udp_port, stop, write
+from tests.support import BIN, MISSIONS, REPO, end, free_endpoint, free_udp_port, stop, write
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
 EVERY = str(MISSIONS / "every_construct.mcl")

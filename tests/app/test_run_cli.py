@@ -3,7 +3,7 @@ timeline and writes a run log; ``mcl replay`` checks the log against the mission
 answered with exit 2 and a message, never a traceback.
 
 Exit status (app/run.py): run 0 ok, 1 fail, 2 invalid input, 4 time limit or stuck, 5 a
-vehicle error, 128 + N signal N (tests/test_safe_exit.py); replay 0 conformant,
+vehicle error, 128 + N signal N (tests/app/test_safe_exit.py); replay 0 conformant,
 1 not conformant (a truncated or edited log names its line), 2 invalid input.
 """
 

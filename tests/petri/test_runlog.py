@@ -1,6 +1,6 @@
 """The run log (petri/runlog.py): RunLog writes what the player did, read_log reads it back
 record for record, and the log replays as conformant. (Logs as evidence, edits and forgeries
-refused by ``mcl replay``: tests/test_replay_evidence.py.)
+refused by ``mcl replay``: tests/petri/test_replay_evidence.py.)
 """
 
 from __future__ import annotations

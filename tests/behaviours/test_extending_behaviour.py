@@ -26,7 +26,7 @@ from mcl.api import compile_file
 from petri.player import Player, Record
 from petri.runner import Outcome, run
 from tests.support import REPO, cli
-from tests.test_registry import disagreements
+from tests.behaviours.test_registry import disagreements
 from vehicle.stack import IctineuStack, StackConfig
 from vehicle_adapters.inprocess import InProcess
 

@@ -54,7 +54,7 @@ ERRORS = [
     ("MISSION {\n  Surface;\n  Alarms()\n}\n", "call-needs-parentheses", 2, 3, "parentheses"),
     ("MISSION { Surface() }\nMISSION { Alarms() }\n", "text-after-mission", 2, 1,
      "after the end of the mission"),
-    # types that catch slips (more in tests/test_types.py)
+    # types that catch slips (more in tests/mcl/test_types.py)
     ("MISSION {\n  Wait(-5 s)\n}\n", "negative-duration", 2, 8, "cannot be negative"),
     ("MISSION {\n  Wait(1e308 h)\n}\n", "number-out-of-range", 2, 8, "not a finite number"),
     ("MISSION {\n  GoTo((0, 0))\n}\n", "missing-field", 2, 8, "z and yaw are missing"),
