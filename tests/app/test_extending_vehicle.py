@@ -125,7 +125,13 @@ def test_the_registry_refuses_for_the_new_kind(installed: Path) -> None:
     unknown = mcl(installed, "run", DAM, "--vehicle", "warp", "--log", log)
     assert unknown.returncode == 2
     assert "mavlink:URL or loopback:SECONDS" in unknown.stderr, unknown.stderr
-    for output in (other, inject, bad, unknown):
+    endless = mcl(installed, "run", DAM, "--vehicle", "loopback:inf", "--log", log)
+    assert endless.returncode == 2 and endless.stderr.startswith("--vehicle loopback:inf: error: ")
+    typo = mcl(installed, "run", DAM, "--vehicle", "loopback:2", "--silent", "Alarm", "--log", log)
+    assert typo.returncode == 2
+    assert typo.stderr.startswith("--silent Alarm: error: the vehicle has no such behaviour"), \
+        typo.stderr
+    for output in (other, inject, bad, unknown, endless, typo):
         assert "Traceback" not in output.stderr
 
 
