@@ -88,13 +88,9 @@ class GoTo(Behaviour):
     def on_update(self, p: Perception) -> Response:
         if self.failed:
             return Response({"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0})
-        tx, ty, tz = (self.param(k, getattr(p, k)) for k in ("x", "y", "z"))
-        tyaw = self.angle("yaw", p.psi)
+        (tx, ty, tz, _), distance, eyaw = self.aim(p)
         ex, ey, ez = tx - p.x, ty - p.y, tz - p.z
-        eyaw = wrap(tyaw - p.psi)
-        distance = math.sqrt(ex * ex + ey * ey + ez * ez)
-        reached = distance < self.param("tolerance", 0.5) and abs(eyaw) < math.radians(5)
-        if reached:
+        if self.reached(distance, eyaw):
             self.raise_event("reached")
         elif not any(n == "reached" for n, _ in self.raised):
             reason = self.reach.check(p, tx, ty, tz, distance + abs(eyaw))
@@ -111,6 +107,19 @@ class GoTo(Behaviour):
         return Response({"x": self.gain * eu * scale, "y": self.gain * ev * scale,
                          "z": clamp(self.gain * ez, self.speed), "yaw": clamp(
                              self.yaw_gain * eyaw, 0.3)})
+
+
+    def aim(self, p: Perception) -> tuple[tuple[float, float, float, float], float, float]:
+        """The target (x, y, z, yaw: what the action gives, the vehicle's own for the rest),
+        the distance to it (m) and the yaw error (rad)."""
+        tx, ty, tz = (self.param(k, getattr(p, k)) for k in ("x", "y", "z"))
+        tyaw = self.angle("yaw", p.psi)
+        ex, ey, ez = tx - p.x, ty - p.y, tz - p.z
+        return (tx, ty, tz, tyaw), math.sqrt(ex * ex + ey * ey + ez * ez), wrap(tyaw - p.psi)
+
+    def reached(self, distance: float, eyaw: float) -> bool:
+        """Within the tolerance (m) and 5 degrees of the target."""
+        return distance < self.param("tolerance", 0.5) and abs(eyaw) < math.radians(5)
 
 
 def wall_path(value: Any) -> list[tuple[float, float]]:
@@ -215,14 +224,19 @@ class AchieveHeadDist(Behaviour):
             e_head = wrap(p.wall_normal + heading - p.psi)
         else:
             e_head = wrap(heading - p.wall_heading)
+        self.settling(p.t, e_dist, e_head)
+        return Response({"x": clamp(self.gain * e_dist, self.speed),
+                         "yaw": clamp(self.yaw_gain * e_head, 0.3)})
+
+
+    def settling(self, t: float, e_dist: float, e_head: float) -> None:
+        """'achieved' once within 0.1 m and 2 degrees of the aim for ``settle`` s on end."""
         if abs(e_dist) < 0.1 and abs(e_head) < math.radians(2):
-            self.good_since = p.t if self.good_since is None else self.good_since
-            if p.t - self.good_since >= self.settle:
+            self.good_since = t if self.good_since is None else self.good_since
+            if t - self.good_since >= self.settle:
                 self.raise_event("achieved")
         else:
             self.good_since = None
-        return Response({"x": clamp(self.gain * e_dist, self.speed),
-                         "yaw": clamp(self.yaw_gain * e_head, 0.3)})
 
 
 class Surface(Behaviour):

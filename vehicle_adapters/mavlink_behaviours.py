@@ -45,14 +45,12 @@ class GoTo(motion.GoTo):
     """The target (x, y, z, and yaw if given) as ArduSub's position setpoint."""
 
     def on_update(self, p: Perception) -> Response:
-        target = {"x": self.param("x", p.x), "y": self.param("y", p.y),
-                  "z": self.param("z", p.z)}
-        if "yaw" in self.params:
-            target["yaw"] = self.angle("yaw", 0.0)
-        error = math.dist((target["x"], target["y"], target["z"]), (p.x, p.y, p.z))
-        yaw_ok = abs(wrap(target.get("yaw", p.psi) - p.psi)) < math.radians(5)
-        if error < self.param("tolerance", 0.5) and yaw_ok:
+        (x, y, z, yaw), distance, eyaw = self.aim(p)
+        if self.reached(distance, eyaw):
             self.raise_event("reached")
+        target = {"x": x, "y": y, "z": z}
+        if "yaw" in self.params:  # else ArduSub keeps its heading
+            target["yaw"] = yaw
         return Response(setpoints=target)
 
 
@@ -106,13 +104,7 @@ class AchieveHeadDist(motion.AchieveHeadDist):
                 self.raise_event("lost", reason="wall not tracked")
             return Response()
         heading, distance = self.angle("heading", 0.0), self.param("distance", 1.5)
-        e_head = wrap(heading - a.wall_heading)
-        if abs(a.wall_distance - distance) < 0.1 and abs(e_head) < math.radians(2):
-            self.good_since = a.t if self.good_since is None else self.good_since
-            if a.t - self.good_since >= self.settle:
-                self.raise_event("achieved")
-        else:
-            self.good_since = None
+        self.settling(a.t, a.wall_distance - distance, wrap(heading - a.wall_heading))
         return Response(setpoints={"x": a.wall_point[0] - distance * math.cos(a.wall_normal),
                                    "yaw": a.wall_normal + heading})
 
