@@ -1,6 +1,6 @@
 """What both ends of a MAVLink link agree on, as ArduSub has it: identities, mode numbers, the
 texts of its alarms and failsafes, and the URLs pymavlink opens. Used by the simulated vehicle
-(:mod:`vehicle.ardusub`) and the player's adapter (:mod:`vehicle_adapters.mavlink_link`).
+(:mod:`vehicle.servers.ardusub`) and the player's adapter (:mod:`vehicle_adapters.mavlink.link`).
 """
 
 from __future__ import annotations

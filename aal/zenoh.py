@@ -7,7 +7,7 @@ Key layout (``<v>`` is the vehicle's name)::
     mcl/<v>/aal/event             vehicle -> player, EventMessage JSON, blocking congestion control
     mcl/<v>/telemetry/clock       vehicle -> all, {"t": sim seconds, "speed": x wall, "running": bool}
     mcl/<v>/telemetry/<stream>    vehicle -> all, navigator, wall, behaviours (JSON, droppable)
-    mcl/<v>/mission/status        player -> all, the mission's status (petri/status.py), and a
+    mcl/<v>/mission/status        player -> all, the mission's status (petri/execution/status.py), and a
                                   queryable answering with the latest one (late monitors)
     mcl/<v>/capabilities          vehicle queryable: what it can do, {"vehicle", "source", "text"}
                                   with ``text`` the task library's behaviour statements
@@ -33,8 +33,8 @@ import threading
 
 import zenoh
 
-from .zenoh_security import Security
-from .zenoh_security import apply as apply_security
+from aal.zenoh_security import Security
+from aal.zenoh_security import apply as apply_security
 
 log = logging.getLogger(__name__)
 

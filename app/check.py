@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import sys
 
-from . import mclc
+from app import mclc
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
         _parser().parse_args(args)  # --help, or a usage error (exit 2)
         return 2
     except BrokenPipeError:
-        from .mclc import stdout_closed
+        from app.mclc import stdout_closed
 
         stdout_closed()
         return 0

@@ -56,7 +56,7 @@ def _parser() -> argparse.ArgumentParser:
                         "outcome and static analyses of the syntax tree (for missions too large "
                         "to enumerate); auto (default): explicit when its estimated memory fits "
                         "1 GiB, completed by structural if the exploration is cut "
-                        "(mcl/verification.py)")
+                        "(mcl/analysis/verification.py)")
     p.add_argument("--max-markings", type=_positive, default=5_000_000, metavar="N",
                    help="explicit route: stop after N markings; what the cut exploration "
                         "cannot decide is reported undecided (exit 4) (default 5,000,000)")
@@ -142,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv: list[str] | None, so_far: list[int]) -> int:
     args = _parser().parse_args(argv)
     fmt = "json" if args.json else (args.format or "text")
-    from mcl.duration import parse_limits
+    from mcl.analysis.duration import parse_limits
 
     try:
         args.limits = parse_limits(args.deadline, args.battery, args.reserve)
@@ -182,7 +182,7 @@ def _main(argv: list[str] | None, so_far: list[int]) -> int:
     if fmt == "json":
         print(json.dumps(reports[0] if len(reports) == 1 else reports, indent=2))
     elif fmt in ("junit", "sarif", "github"):
-        from . import formats
+        from app.reports import formats
 
         print(getattr(formats, fmt)(reports))
     sys.stdout.flush()
@@ -203,7 +203,7 @@ def _diag_json(d: Diagnostic) -> dict[str, Any]:
 
 def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, Any]]:
     if path.lower().endswith(".pnml"):
-        from petri.pnml_report import report_file
+        from petri.verification.pnml_report import report_file
 
         return report_file(path, fmt)
     params = parse_params(args.param, args.params)
@@ -212,7 +212,7 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, 
     report = _summary(compiled)
     status = EXIT_OK
     if not args.no_verify:
-        from mcl.verification import verify_mission
+        from mcl.analysis.verification import verify_mission
 
         verdict = verify_mission(compiled, args.method, max_markings=args.max_markings)
         report["verification"] = verdict.to_json()
@@ -220,7 +220,7 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, 
                   else EXIT_UNDECIDED)
         report["status"] = ("verified" if verdict.ok else "property-fails" if verdict.failed
                             else "undecided")
-    from mcl.duration import check as check_durations
+    from mcl.analysis.duration import check as check_durations
 
     bounds = check_durations(compiled.checked, args.limits)
     report["duration"] = bounds.report
@@ -235,7 +235,7 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, 
 
 
 def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:
-    from petri.dot import to_dot
+    from petri.formats.dot import to_dot
 
     net = compiled.net
 
@@ -260,7 +260,7 @@ def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:
 
 
 def _write_pnml(net: Any, path: str) -> None:
-    from petri.pnml import write_pnml
+    from petri.formats.pnml import write_pnml
 
     write_pnml(net, path)
 
@@ -289,7 +289,7 @@ def _print_text(compiled: Compiled, report: dict[str, Any], args: argparse.Names
         if flag:
             print(f"  wrote {what} to {flag}")
     if "verification" in report:
-        from petri.verify import format_text
+        from petri.verification.properties import format_text
 
         print(format_text(report["verification"]))
 

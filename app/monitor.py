@@ -241,7 +241,7 @@ def _check_options(args: argparse.Namespace) -> str | None:
 def main(argv: Sequence[str] | None = None) -> int:
     from aal.zenoh import DEFAULT_ENDPOINT
 
-    from . import zenoh_options
+    from app import zenoh_options
 
     p = argparse.ArgumentParser(prog="mcl monitor",
                                 description="Watch a mission and its vehicle over Zenoh.")

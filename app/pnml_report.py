@@ -5,7 +5,7 @@
 
 A ``.tgz`` is a Model Checking Contest archive; its ``*/model.pnml`` is read. The report (how
 many markings and arcs, bounds, deadlocks, dead transitions, 1-safety) is
-:func:`petri.pnml_report.analyse`'s. Exit status: 0 reported, 1 the net could not be read or
+:func:`petri.verification.pnml_report.analyse`'s. Exit status: 0 reported, 1 the net could not be read or
 the method could not decide it. (``mclc FILE.pnml`` gives the same report with mclc's statuses.)
 """
 
@@ -15,9 +15,9 @@ import argparse
 import json
 import sys
 
-from petri import symbolic
-from petri.pnml import PnmlError
-from petri.pnml_report import analyse, format_report, load_net
+from petri.verification import symbolic
+from petri.formats.pnml import PnmlError
+from petri.verification.pnml_report import analyse, format_report, load_net
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -3,7 +3,7 @@
     mcl replay RUN.jsonl MISSION.mcl [--tasks FILE]
 
 The log's digest chain, its clock and its end record are checked, then every record against
-the mission's net (``petri/replay.py``). Exit status: 0 the log conforms, 1 it does not, 2
+the mission's net (``petri/execution/replay.py``). Exit status: 0 the log conforms, 1 it does not, 2
 invalid input, 3 an internal error.
 """
 
@@ -15,7 +15,7 @@ from typing import Any
 
 from mcl.api import compile_file
 
-from .guard import guarded
+from app.guard import guarded
 
 EXIT_OK, EXIT_FAIL, EXIT_INVALID = 0, 1, 2
 
@@ -38,8 +38,8 @@ def main(argv: list[str] | None = None) -> int:
 def _replay(args: argparse.Namespace) -> int:
     from diagnostics import Source
     from mcl import parser
-    from petri.replay import check
-    from petri.runlog import LogError, read_log, verify
+    from petri.execution.replay import check
+    from petri.execution.runlog import LogError, read_log, verify
 
     try:
         records = read_log(args.log)

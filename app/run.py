@@ -25,14 +25,14 @@ from typing import TYPE_CHECKING, Any
 from diagnostics import MclError
 from mcl import values
 from mcl.api import Compiled, compile_file, parse_params
-from mcl.verification import verify_mission
+from mcl.analysis.verification import verify_mission
 
-from . import vehicles
-from .guard import guarded
-from .mclc import OutputError
+from app import vehicles
+from app.guard import guarded
+from app.mclc import OutputError
 
 if TYPE_CHECKING:
-    from vehicle.stack import IctineuStack
+    from vehicle.control.stack import IctineuStack
 
 EXIT_OK, EXIT_FAIL, EXIT_INVALID, EXIT_INTERNAL = 0, 1, 2, 3
 EXIT_STOPPED, EXIT_VEHICLE = 4, 5  # run: --max-time or stuck; an error of the vehicle
@@ -112,11 +112,11 @@ def _param_texts(overrides: dict[str, Any]) -> dict[str, str]:
 
 
 def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
-    from petri.player import Player
-    from petri.runlog import RunLog, net_digest
-    from petri.runner import MissionClock, run
+    from petri.execution.player import Player
+    from petri.execution.runlog import RunLog, net_digest
+    from petri.execution.runner import MissionClock, run
 
-    from . import safe_exit
+    from app import safe_exit
 
     _check_log(Path(args.log) if args.log else Path("out/runs/MISSION.jsonl"))
     overrides = parse_params(args.param, args.params)
@@ -164,7 +164,7 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
                 player.observers.append(log)
                 player.observers.append(lambda r: last_t.__setitem__(0, r.t))
                 if chosen.status is not None:  # observers of the mission: mcl monitor
-                    from petri.status import MissionStatus
+                    from petri.execution.status import MissionStatus
 
                     player.observers.append(MissionStatus(
                         player, name, chosen.status.run, chosen.status.publish_status,

@@ -1,7 +1,7 @@
 """What ``mcl run`` needs to end every run safely and to refuse what a vehicle cannot run.
 
 - :class:`Stops`: SIGINT, SIGTERM and SIGHUP ask the runner to abort the mission (through the
-  net, :meth:`petri.player.Player.abort`) instead of killing the process mid-mission.
+  net, :meth:`petri.execution.player.Player.abort`) instead of killing the process mid-mission.
 - :class:`Output`: the timeline and the summary on standard output; a closed standard output
   (``mcl run ... | head -1``) never raises: the run goes on, its safety path untouched, and the
   rest of what it prints is dropped.
@@ -94,9 +94,9 @@ def max_time(compiled: Compiled, given: float | None) -> tuple[float, str]:
 
 
 def mission_bound(compiled: Compiled) -> float | None:
-    """The longest the mission can last, proved from its timeouts (mcl/duration.py; None:
+    """The longest the mission can last, proved from its timeouts (mcl/analysis/duration.py; None:
     they do not bound it)."""
-    from mcl.duration import analyse
+    from mcl.analysis.duration import analyse
 
     worst = analyse(compiled.checked).worst
     return worst if math.isfinite(worst) else None

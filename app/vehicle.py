@@ -3,8 +3,8 @@
     mcl vehicle --zenoh ENDPOINT [--name auv] [--speed 10] [--seed 1] [--inject leak@600] ...
     mcl vehicle --mavlink URL [--speed 10] [--seed 1] [--inject leak@600] ...
 
-Over Zenoh the server is :mod:`vehicle.zenoh_server` (docs/ZENOH.md); over MAVLink 2 the
-ArduSub-like vehicle of :mod:`vehicle.ardusub` (docs/MAVLINK.md). Both print ``vehicle auv
+Over Zenoh the server is :mod:`vehicle.servers.zenoh_server` (docs/ZENOH.md); over MAVLink 2 the
+ArduSub-like vehicle of :mod:`vehicle.servers.ardusub` (docs/MAVLINK.md). Both print ``vehicle auv
 ready on ...`` when ready and their summary when stopped (SIGTERM, SIGINT). Exit status: 0
 stopped, 2 invalid input (one line naming the option).
 """
@@ -19,7 +19,7 @@ import sys
 import threading
 from collections.abc import Sequence
 
-from . import zenoh_options
+from app import zenoh_options
 
 LOG_LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL")
 
@@ -34,7 +34,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def fault_argument(text: str) -> tuple[str, float]:
     """``--inject FAULT@SECONDS``: a bad fault is a usage error, not a traceback."""
-    from vehicle.stack import parse_fault
+    from vehicle.control.stack import parse_fault
 
     try:
         return parse_fault(text)
@@ -79,7 +79,7 @@ def zenoh_main(argv: list[str]) -> int:
     import zenoh
 
     from aal.zenoh import zenoh_error
-    from vehicle import zenoh_server
+    from vehicle.servers import zenoh_server
 
     p = _zenoh_parser()
     args = p.parse_args(argv)
@@ -159,7 +159,7 @@ def _mavlink_parser() -> argparse.ArgumentParser:
 
 def mavlink_main(argv: list[str]) -> int:
     from aal import signing
-    from vehicle import ardusub
+    from vehicle.servers import ardusub
 
     args = _mavlink_parser().parse_args(argv)
     try:

@@ -1,8 +1,8 @@
 """The vehicle's behaviours (paper 002 §3.1), one lifecycle, each raising the events of AAL.md."""
 
-from .base import DOFS, Behaviour, Perception, Response
-from .motion import AchieveHeadDist, GoTo, Surface, WallInspection
-from .sensing import Alarms, StartCamera, StartLogs
+from behaviours.base import DOFS, Behaviour, Perception, Response
+from behaviours.motion import AchieveHeadDist, GoTo, Surface, WallInspection
+from behaviours.sensing import Alarms, StartCamera, StartLogs
 
 ALL: tuple[type[Behaviour], ...] = (GoTo, WallInspection, AchieveHeadDist, Surface,
                                     StartCamera, Alarms, StartLogs)

@@ -24,8 +24,8 @@ from collections.abc import Iterable
 
 from aal.messages import Declaration
 
-from . import ALL, registry
-from .base import DOFS, Behaviour
+from behaviours import ALL, registry
+from behaviours.base import DOFS, Behaviour
 
 SOURCE = "behaviours/registry.py"
 _STATEMENT = re.compile(r"^[ \t]*(?:behaviour[ \t]+([A-Za-z_]\w*)\b|dofs\b)[^;]*;",

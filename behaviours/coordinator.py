@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from . import registry
-from .base import DOFS, Response
+from behaviours import registry
+from behaviours.base import DOFS, Response
 
 # Who wins an overlap, highest first (Surface over wall keeping over the motion along the wall
 # over transits): derived from the registered classes' ``priority``, never kept by hand.

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from .base import Behaviour, Perception, Response, clamp, wrap
+from behaviours.base import Behaviour, Perception, Response, clamp, wrap
 
 
 class Reach:

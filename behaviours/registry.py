@@ -13,10 +13,10 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
-from .base import DOFS, Behaviour
-from .motion import AchieveHeadDist, GoTo, Surface, WallInspection
-from .seabed import FollowCable, FollowPipeline, KeepAltitude, SearchLine
-from .sensing import Alarms, StartCamera, StartLogs
+from behaviours.base import DOFS, Behaviour
+from behaviours.motion import AchieveHeadDist, GoTo, Surface, WallInspection
+from behaviours.seabed import FollowCable, FollowPipeline, KeepAltitude, SearchLine
+from behaviours.sensing import Alarms, StartCamera, StartLogs
 
 REGISTRY: dict[str, type[Behaviour]] = {}
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .base import Behaviour, Perception, Response, clamp, wrap
+from behaviours.base import Behaviour, Perception, Response, clamp, wrap
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .base import Behaviour, Perception, Response
+from behaviours.base import Behaviour, Perception, Response
 
 
 class StartCamera(Behaviour):

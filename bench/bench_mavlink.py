@@ -29,7 +29,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from vehicle_adapters.mavlink_link import MavlinkVehicle, mavutil
+from vehicle_adapters.mavlink.link import MavlinkVehicle, mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402  (after: MAVLink 2)
 
 from tests.support import first_line, free_udp_port, stop  # the repository's test helpers

@@ -1,7 +1,7 @@
 """Benchmark: the photomosaic of the dam mission (paper 002 §6) against ground truth.
 
 Runs the dam mission in process on the simulated Ictineu with the camera rendering the wall
-(vehicle/camera.py: 320 x 240 pixels; images and their navigation data written to
+(vehicle/sensors/camera.py: 320 x 240 pixels; images and their navigation data written to
 out/bench/mosaic/dam.images), then builds the mosaic (mosaic/build.py) ``--runs`` times and
 reports, next to the targets:
 
@@ -36,9 +36,9 @@ sys.path.insert(0, str(REPO))
 from mcl.api import compile_file
 from mosaic import build
 from mosaic.hook import attach
-from petri.player import Player
-from petri.runner import run
-from vehicle.stack import IctineuStack, StackConfig
+from petri.execution.player import Player
+from petri.execution.runner import run
+from vehicle.control.stack import IctineuStack, StackConfig
 from vehicle_adapters.inprocess import InProcess
 
 DAM = REPO / "missions" / "dam_inspection.mcl"

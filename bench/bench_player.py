@@ -11,7 +11,7 @@ What is measured, in process, on the same net, with the same events, in the same
 Implementations, each driven through the same small interface (``start``, ``handle_event``,
 observers receiving ``Record``):
 
-* ``petri.player``: the project's player (candidates re-examined by place, heap by index);
+* ``petri.execution.player``: the project's player (candidates re-examined by place, heap by index);
 * ``naive rescan``: the same rules in plain Python, rescanning every transition after each
   firing (the textbook loop);
 * ``pm4py``: the same rules on pm4py's own semantics (``pm4py.objects.petri_net.semantics``:
@@ -54,7 +54,7 @@ sys.path.insert(0, str(REPO))
 
 from mcl.api import compile_file
 from petri.net import Net
-from petri.player import Player, Record
+from petri.execution.player import Player, Record
 from petri.semantics import Semantics
 
 MCLC = str(Path(sys.executable).parent / "mclc")
@@ -261,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
             ("dam leak", dam_net, dam_pnml, lambda n: [dam_leak] * n, args.runs),
         ]
         implementations: list[tuple[str, Callable[[Net, Path], Factory], float]] = [
-            ("petri.player", lambda net, pnml: lambda n, obs: Player(n, observers=obs), 1.0),
+            ("petri.execution.player", lambda net, pnml: lambda n, obs: Player(n, observers=obs), 1.0),
             ("naive rescan", lambda net, pnml: lambda n, obs: NaivePlayer(n, obs),
              args.peer_share),
             ("pm4py semantics",
@@ -290,7 +290,7 @@ def main(argv: list[str] | None = None) -> int:
                     if figures.sequence != reference[:m]:
                         first = next(i for i, (a, b) in enumerate(zip(figures.sequence,
                                                                       reference)) if a != b)
-                        print(f"{label:<11} {impl:<16} DISAGREES with petri.player at firing "
+                        print(f"{label:<11} {impl:<16} DISAGREES with petri.execution.player at firing "
                               f"{first}: {figures.sequence[first]} vs {reference[first]}")
                         continue
                 rate = figures.firings / (sum(figures.handle_ns) / 1e9)
@@ -313,7 +313,7 @@ def main(argv: list[str] | None = None) -> int:
     print("ratios: a peer's median latency / the player's, and the player's firing rate / "
           "the peer's (above 1: the player is faster)")
     print(f"targets: median latency under {TARGET_MEDIAN_US:g} us, p99 under "
-          f"{TARGET_P99_US:g} us (petri.player)")
+          f"{TARGET_P99_US:g} us (petri.execution.player)")
     for label, med, p99 in verdicts:
         ok = med < TARGET_MEDIAN_US and p99 < TARGET_P99_US
         print(f"  {label:<11} median {med:7.1f} us  p99 {p99:7.1f} us  "

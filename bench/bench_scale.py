@@ -100,7 +100,7 @@ def sizes(case: Case) -> str:
         return ""
     sys.path.insert(0, str(REPO))
     from mcl.api import compile_file
-    from petri._explore_bits import explore_bits
+    from petri.verification.explore_bits import explore_bits
 
     start = time.perf_counter()
     net = compile_file(str(case.path)).net

@@ -1,8 +1,8 @@
-"""Benchmark: the timed model (petri/timed.py) against the untimed reachability graph.
+"""Benchmark: the timed model (petri/verification/timed.py) against the untimed reachability graph.
 
 For each mission it prints, measured in this one run: the untimed graph's markings and arcs
-(:func:`petri.reachability.explore`) and the timed model's markings and state classes
-(:func:`petri.timed.explore_timed`), each with the external stop (``Mission.abort`` at any
+(:func:`petri.verification.reachability.explore`) and the timed model's markings and state classes
+(:func:`petri.verification.timed.explore_timed`), each with the external stop (``Mission.abort`` at any
 time, as the verifier explores the net) and without it (the main model), and the median
 seconds of each (median of ``--runs``, after a warm-up run so that numba's compilation is
 not counted).
@@ -26,9 +26,9 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from mcl.api import compile_file
-from petri.reachability import explore
+from petri.verification.reachability import explore
 from petri.semantics import MISSION_ABORT
-from petri.timed import explore_timed
+from petri.verification.timed import explore_timed
 
 DEFAULT = [REPO / "missions" / "dam_inspection.mcl"]
 

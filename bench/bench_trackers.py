@@ -1,12 +1,12 @@
 """Benchmark: the two seabed trackers' speed, next to the papers' figures.
 
-* Wirth's Condensation cable tracker (vehicle/cable_tracker.py, paper 004): frames per second
+* Wirth's Condensation cable tracker (vehicle/perception/cable_tracker.py, paper 004): frames per second
   with the parameters of Table 5.1 (500 particles, filter size 11 px, sample point distance
   20 px) and with the thesis's "high-speed" setting (300 particles, filter size 5 px), against
   Table 5.3 (17.29 ... 17.59 ms a frame, 56.9 ... 59.7 frames/s on a 1.5 GHz Pentium M; the
   high-speed setting about 7 ms, over 140 frames/s). The thesis's cost scales with particles x
   sample points x filter taps, which depend on the image's size only through the border length.
-* Foresti's pipeline tracker (vehicle/pipeline_tracker.py, paper 000): Canny, Hough, domains,
+* Foresti's pipeline tracker (vehicle/perception/pipeline_tracker.py, paper 000): Canny, Hough, domains,
   grouping and the EKF per frame, against the paper's 4 frames/s at 256 x 256 on two 400 MHz
   Pentium II (§VII).
 
@@ -35,10 +35,10 @@ sys.path.insert(0, str(HERE.parent))
 
 import numpy as np
 
-from vehicle.cable_tracker import TABLE_5_1, CableTracker
-from vehicle.downward_camera import DownwardCamera
-from vehicle.pipeline_tracker import PipelineTracker, PipeModel
-from vehicle.seabed import default_scene
+from vehicle.perception.cable_tracker import TABLE_5_1, CableTracker
+from vehicle.sensors.downward_camera import DownwardCamera
+from vehicle.perception.pipeline_tracker import PipelineTracker, PipeModel
+from vehicle.world.seabed import default_scene
 
 TABLE_5_3_MS = (17.29, 16.47, 16.92, 17.51, 16.84, 17.59)  # S1..S6, ms a frame
 

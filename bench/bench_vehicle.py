@@ -3,7 +3,7 @@
 What is measured, in process (the compiled dam mission, the player, the in-process adapter,
 IctineuStack), in simulated time:
 
-* speed: simulated seconds per wall second for the whole mission (the ``petri.runner.run``
+* speed: simulated seconds per wall second for the whole mission (the ``petri.execution.runner.run``
   call only; compiling is not counted), median of ``--runs`` runs:
 
   - ``full``: every sensor and estimator at its rate (DVL 2 Hz, heading 10 Hz, depth 5 Hz,
@@ -40,10 +40,10 @@ sys.path.insert(0, str(REPO))
 
 import behaviours as bh
 from mcl.api import Compiled, compile_file
-from petri.player import Player
-from petri.runner import Outcome, run
-from vehicle.robot import wrap_angle
-from vehicle.stack import IctineuStack, StackConfig
+from petri.execution.player import Player
+from petri.execution.runner import Outcome, run
+from vehicle.world.robot import wrap_angle
+from vehicle.control.stack import IctineuStack, StackConfig
 from vehicle_adapters.inprocess import InProcess
 
 DAM = REPO / "missions" / "dam_inspection.mcl"

@@ -2,7 +2,7 @@
 
 For each model in ../shared/mcc/models it prints, measured in this one run on the same nets:
 
-* ours: markings per second of :func:`petri.reachability.explore` (median of 3, in this
+* ours: markings per second of :func:`petri.verification.reachability.explore` (median of 3, in this
   process, after a warm-up run so that numba's compilation is not counted), or the seconds of
   the symbolic search for the nets too large to enumerate;
 * pm4py: markings per second of ``construct_reachability_graph``;
@@ -31,10 +31,10 @@ REPO = Path(__file__).resolve().parents[1]
 MCC = REPO.parent / "shared" / "mcc"
 sys.path.insert(0, str(REPO))
 
-from petri import reachability as rg
-from petri import symbolic
+from petri.verification import reachability as rg
+from petri.verification import symbolic
 from petri.net import Net
-from petri.pnml import read_pnml
+from petri.formats.pnml import read_pnml
 
 RUNS = 3
 EXPLICIT_MAX_MARKINGS = 5_000_000  # beyond this, ours is timed symbolically
@@ -48,7 +48,7 @@ import json, sys, time, warnings
 warnings.filterwarnings("ignore")
 kind, path, runs = sys.argv[1], sys.argv[2], int(sys.argv[3])
 sys.path.insert(0, sys.argv[4])
-from petri.pnml import read_pnml
+from petri.formats.pnml import read_pnml
 net = read_pnml(path)
 times, count = [], 0
 if kind == "pm4py":

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from diagnostics import Diagnostic, MclError, Source, read_source
 from petri.net import Net
 
-from . import ast, checker, compiler, parser, tasklib
+from mcl import ast, checker, compiler, parser, tasklib
 
 
 @dataclass

@@ -17,10 +17,10 @@ from dataclasses import dataclass, field
 
 from diagnostics import Diagnostic, MclError, Source, Span
 
-from . import ast
-from .parser import KEYWORDS, suggest
-from .tasklib import Formal, Library, TaskForm
-from .values import FIELDS, check, describe, limits, to_text
+from mcl import ast
+from mcl.parser import KEYWORDS, suggest
+from mcl.tasklib import Formal, Library, TaskForm
+from mcl.values import FIELDS, check, describe, limits, to_text
 
 
 @dataclass(frozen=True)

@@ -8,9 +8,11 @@ from __future__ import annotations
 
 from petri.net import LATCH_OFF, LATCH_ON, Net
 
-from . import ast, latches
-from .checker import Checked
-from .templates import (
+from mcl import ast
+
+from mcl.analysis import latches
+from mcl.checker import Checked
+from mcl.templates import (
     if_then_else,
     mission,
     parallel_and,
@@ -20,7 +22,7 @@ from .templates import (
     try_catch_do,
     while_do,
 )
-from .templates.common import Context, Interface, Latch
+from mcl.templates.common import Context, Interface, Latch
 
 
 def compile_mission(checked: Checked) -> Net:
@@ -57,7 +59,7 @@ def compile_block(ctx: Context, block: ast.Block) -> Interface:
 
 
 def latch_flow(checked: Checked) -> latches.Flow:
-    """Which latch states may hold at each call and in each block (mcl/latches.py): each
+    """Which latch states may hold at each call and in each block (mcl/analysis/latches.py): each
     latching call and each abort cleanup gets transitions for those states only."""
     return latches.analyse(checked)[0]
 

@@ -23,7 +23,7 @@ from lark import (
 
 from diagnostics import MclError, Source, Span, error, read_source
 
-from . import ast
+from mcl import ast
 
 KEYWORDS = ("MISSION", "PARAM", "USES", "TRY", "CATCH", "DO", "PARALLEL", "AND", "OR", "IF", "THEN",
             "ELSE", "WHILE")

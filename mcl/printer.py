@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from . import ast
-from .values import to_text
+from mcl import ast
+from mcl.values import to_text
 
 INDENT = "    "
 

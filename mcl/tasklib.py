@@ -21,8 +21,8 @@ from lark import Lark, Token, Tree, UnexpectedInput
 from diagnostics import Diagnostic, MclError, Source, Span, error, read_source
 from petri.net import POINT_FIELDS
 
-from . import ast
-from .values import FIELDS, KINDS, NUMERIC, UNITS, Range, check, limits, to_text
+from mcl import ast
+from mcl.values import FIELDS, KINDS, NUMERIC, UNITS, Range, check, limits, to_text
 
 BUILTIN_SOURCES = ("Link", "Mission")  # events the player itself raises
 ACTION_KINDS = ("enable", "disable", "configure")
@@ -186,7 +186,7 @@ def load_sources(sources: list[Source]) -> Library:
                         source.span(max(exc.line, 1), max(exc.column, 1)),
                         "see mcl/grammar/tasks.lark and docs/TASKS.md for the syntax",
                         code="library-syntax") from None
-        from .parser import _check_depth
+        from mcl.parser import _check_depth
 
         _check_depth(source, tree)
         builder = _Builder(source)
@@ -214,7 +214,7 @@ def load_sources(sources: list[Source]) -> Library:
 def _check_dofs(library: Library, drivers: list[tuple[Source, Behaviour]]) -> None:
     """Every degree of freedom a behaviour drives must be declared (a misspelt one would
     silently take the behaviour out of the dof-exclusive proof)."""
-    from .parser import suggest
+    from mcl.parser import suggest
 
     declared = library.degrees_of_freedom
     where = ("the declared ones: " if library.declared_dofs else
@@ -320,7 +320,7 @@ class _Builder:
         kind, *defaults = kind_node.children
         assert isinstance(kind, Token)
         if str(kind) not in KINDS:
-            from .parser import suggest
+            from mcl.parser import suggest
 
             raise error(self.source, f"unknown kind '{kind}'", self.span(kind),
                         (suggest(str(kind), list(KINDS)) + " ").lstrip()
@@ -459,7 +459,7 @@ class _Builder:
 
     def value(self, node: Tree[Token] | Token | None) -> ast.Value:
         # The value rules are the same as MCL's; reuse the mission builder.
-        from .parser import _Builder as MissionBuilder
+        from mcl.parser import _Builder as MissionBuilder
 
         return MissionBuilder(self.source).value(node)
 
@@ -486,7 +486,7 @@ def _validate(source: Source, library: Library, form: TaskForm) -> None:
                 fail(f"'{expr.name}' is not a parameter of this task", expr.span,
                      f"parameters: {', '.join(formals) or 'none'}")
 
-    from .parser import suggest
+    from mcl.parser import suggest
 
     behaviours = list(library.behaviours)
     for action in form.start + form.stop:

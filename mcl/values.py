@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from . import ast
+from mcl import ast
 
 KINDS = ("number", "length", "angle", "duration", "point", "path", "list")
 UNITS: dict[str, tuple[str, float]] = {

@@ -15,9 +15,9 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from .blending import Canvas
-from .projection import FloatArray, Intrinsics, apply, homography, wall_points
-from .registration import Pair
+from mosaic.blending import Canvas
+from mosaic.projection import FloatArray, Intrinsics, apply, homography, wall_points
+from mosaic.registration import Pair
 
 Image = npt.NDArray[np.uint8]
 
@@ -79,7 +79,7 @@ def truth_on_canvas(meta: dict[str, object], canvas: Canvas) -> Image | None:
     spec = meta.get("texture")
     if not isinstance(spec, dict):
         return None
-    from vehicle.camera import TextureSpec, WallTexture
+    from vehicle.sensors.camera import TextureSpec, WallTexture
 
     tex = WallTexture(TextureSpec(seed=int(spec["seed"]), mm_per_px=float(spec["mm_per_px"]),
                                   y_range=(float(spec["y_range"][0]), float(spec["y_range"][1])),

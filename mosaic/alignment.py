@@ -30,8 +30,8 @@ import numpy.typing as npt
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from .projection import FloatArray, Intrinsics, wall_jacobian, wall_points
-from .registration import Pair
+from mosaic.projection import FloatArray, Intrinsics, wall_jacobian, wall_points
+from mosaic.registration import Pair
 
 
 @dataclass

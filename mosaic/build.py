@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from . import accuracy, alignment, blending, illumination, registration
-from .images import Survey, read
-from .projection import FloatArray, homography
+from mosaic import accuracy, alignment, blending, illumination, registration
+from mosaic.images import Survey, read
+from mosaic.projection import FloatArray, homography
 
 Image = npt.NDArray[np.uint8]
 
@@ -96,7 +96,7 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
     # registration: consecutive usable images, then overlapping ones from other passages
     hw = [homography(p, k) for p in prior]
     ca, cb = k.slopes(np.array([[k.cx, k.cy]]))
-    from .projection import wall_points
+    from mosaic.projection import wall_points
 
     centres = wall_points(prior, ca[0], cb[0])
     d = float(np.median(prior[:, 2]))

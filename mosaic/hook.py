@@ -11,12 +11,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .images import images_folder
+from mosaic.images import images_folder
 
 
 def attach(stack: Any, log_path: Path) -> None:
     """Record the stack's camera images into ``RUN.images/`` beside the run log."""
-    from vehicle.camera import ImageRecorder
+    from vehicle.sensors.camera import ImageRecorder
 
     cfg = getattr(stack, "config", None)
     stack.images = ImageRecorder(images_folder(log_path), seed=getattr(cfg, "seed", 1),
@@ -29,7 +29,7 @@ def report(stack: Any, log_path: Path, say: Any) -> None:
     recorder = getattr(stack, "images", None)
     if recorder is None or recorder.count == 0:
         return
-    from .build import build, summary_lines, write
+    from mosaic.build import build, summary_lines, write
 
     try:
         recorder.flush()  # the camera's worker may still be writing the last images

@@ -1,4 +1,4 @@
-"""A run's images and the navigation data of each (what vehicle.camera.ImageRecorder wrote).
+"""A run's images and the navigation data of each (what vehicle.sensors.camera.ImageRecorder wrote).
 
 A folder holds ``camera.json`` (intrinsics, the wall plane, the texture's seed and scale, the
 planned survey path), ``index.csv`` (one line per image) and the PNG images. :func:`find`
@@ -19,7 +19,7 @@ import numpy.typing as npt
 
 from diagnostics import MclError, Span
 
-from .projection import Intrinsics, pose_from_world
+from mosaic.projection import Intrinsics, pose_from_world
 
 Image = npt.NDArray[np.uint8]
 

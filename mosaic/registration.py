@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .projection import FloatArray
+from mosaic.projection import FloatArray
 
 Image = npt.NDArray[np.uint8]
 

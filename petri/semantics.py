@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from .net import ABORT, END_FAIL, END_OK, LATCH_OFF, LATCH_ON, RUN, Net
+from petri.net import ABORT, END_FAIL, END_OK, LATCH_OFF, LATCH_ON, RUN, Net
 
 MISSION_ABORT = "Mission.abort"  # the external stop: operator, uncaught Link.lost, a limit
 LINK_LOST = "Link.lost"

@@ -1,5 +1,5 @@
 """The trace harness shared by the tests of the player, the runner, the in-process adapter,
-the run log and replay (tests/petri/test_player.py, test_runner.py, test_inprocess.py,
+the run log and replay (tests/petri/execution/test_player.py, test_runner.py, test_inprocess.py,
 test_runlog.py, test_replay.py).
 
 Trace tests in the py_trees style: each test writes the trace it expects *before* driving the
@@ -32,10 +32,10 @@ from diagnostics import Source
 from mcl import tasklib
 from mcl.api import compile_source
 from petri.net import Net
-from petri.player import Player, Record
-from petri.replay import check
-from petri.runlog import FORMAT, net_digest
-from petri.runner import run
+from petri.execution.player import Player, Record
+from petri.execution.replay import check
+from petri.execution.runlog import FORMAT, net_digest
+from petri.execution.runner import run
 from tests.support import REPO
 from vehicle_adapters.inprocess import InProcess
 

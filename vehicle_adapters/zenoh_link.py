@@ -39,7 +39,7 @@ from aal.zenoh import (
 )
 from aal.zenoh_security import Security
 
-from .link import MAX_POLL, RemoteVehicle
+from vehicle_adapters.link import MAX_POLL, RemoteVehicle
 
 log = logging.getLogger(__name__)
 

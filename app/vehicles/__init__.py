@@ -12,7 +12,7 @@ import argparse
 import importlib
 from types import ModuleType
 
-from .kind import Invalid, Kind, Options, Vehicle
+from app.vehicles.kind import Invalid, Kind, Options, Vehicle
 
 __all__ = ["KINDS", "Invalid", "Kind", "Options", "Vehicle", "add_options", "build",
            "help_text", "kinds", "usage"]

@@ -12,7 +12,7 @@ from diagnostics import Diagnostic, MclError
 if TYPE_CHECKING:
     from aal.messages import Declaration
     from aal.messages import Vehicle as Adapter
-    from vehicle.stack import IctineuStack
+    from vehicle.control.stack import IctineuStack
 
 
 class Invalid(MclError):

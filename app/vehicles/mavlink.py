@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from .kind import Invalid, Options, Vehicle
+from app.vehicles.kind import Invalid, Options, Vehicle
 
 NAME = "mavlink"
 WHERE = "URL"
@@ -25,7 +25,7 @@ def add_options(options: Options) -> None:
 
 def build(where: str, args: argparse.Namespace) -> Vehicle:
     from aal.signing import SigningError, load_key
-    from vehicle_adapters.mavlink_link import DEFAULT_URL, MavlinkVehicle
+    from vehicle_adapters.mavlink.link import DEFAULT_URL, MavlinkVehicle
 
     try:
         key = load_key(args.signing_key)

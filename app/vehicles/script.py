@@ -8,11 +8,11 @@ from typing import TYPE_CHECKING
 
 from diagnostics import MclError
 
-from .kind import Invalid, Options, Vehicle
+from app.vehicles.kind import Invalid, Options, Vehicle
 
 if TYPE_CHECKING:
     from aal.messages import Declaration
-    from vehicle_adapters.scripted import Script
+    from vehicle.scripted import Script
 
 NAME = "script"
 WHERE = "FILE.toml"
@@ -28,7 +28,7 @@ def add_options(options: Options) -> None:
 
 def build(where: str, args: argparse.Namespace) -> Vehicle:
     from vehicle_adapters.inprocess import InProcess
-    from vehicle_adapters.scripted import ScriptedVehicle, ScriptError, load_script
+    from vehicle.scripted import ScriptedVehicle, ScriptError, load_script
 
     if not where:
         raise Invalid("--vehicle script:FILE.toml needs a file")
@@ -50,9 +50,9 @@ def declaration(script: Script, where: str) -> Declaration:
     from behaviours.capabilities import behaviour_statements
     from diagnostics import read_source
     from mcl import tasklib
-    from vehicle_adapters.scripted import ScriptError, check_script
+    from vehicle.scripted import ScriptError, check_script
 
-    from ..safe_exit import declared_behaviours
+    from app.safe_exit import declared_behaviours
 
     texts = []
     for library in script.tasks:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from .kind import Invalid, Options, Vehicle
+from app.vehicles.kind import Invalid, Options, Vehicle
 
 NAME = "sim"
 WHERE = ""
@@ -21,7 +21,7 @@ def add_options(options: Options) -> None:
 
 def build(where: str, args: argparse.Namespace) -> Vehicle:
     from behaviours import capabilities
-    from vehicle.stack import IctineuStack, StackConfig, parse_fault
+    from vehicle.control.stack import IctineuStack, StackConfig, parse_fault
     from vehicle_adapters.inprocess import InProcess
 
     try:

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import argparse
 
-from .. import zenoh_options
-from .kind import Invalid, Options, Vehicle
+from app import zenoh_options
+from app.vehicles.kind import Invalid, Options, Vehicle
 
 NAME = "zenoh"
 WHERE = "ENDPOINT"

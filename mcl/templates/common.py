@@ -20,11 +20,11 @@ from typing import TYPE_CHECKING
 from diagnostics import Span
 from petri.net import ABORT, ABORTED, BEGIN, FAIL, INNER, OK, Action, Net, Origin
 
-from .. import ast
+from mcl import ast
 
 if TYPE_CHECKING:
-    from ..checker import Checked
-    from ..latches import Flow
+    from mcl.checker import Checked
+    from mcl.analysis.latches import Flow
 
 
 @dataclass(frozen=True)
@@ -51,7 +51,7 @@ class Latch:
 
     def among(self, values: frozenset[tuple[str, str]] | None) -> list[int]:
         """The state places of this latch that ``values`` (pairs (behaviour, "off" | site)
-        from mcl/latches.py) allow, in the order of :meth:`states` (that of the places'
+        from mcl/analysis/latches.py) allow, in the order of :meth:`states` (that of the places'
         numbers: "off" is made before the sites, mcl/compiler.py); all of them when
         ``values`` is None or names a state this latch does not know."""
         if values is None:

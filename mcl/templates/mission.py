@@ -17,8 +17,8 @@ from collections.abc import Callable
 
 from petri.net import BEGIN, END_FAIL, END_OK
 
-from .. import ast
-from .common import Context, Interface
+from mcl import ast
+from mcl.templates.common import Context, Interface
 
 ABORT_EVENT = "Mission.abort"
 

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from .. import ast
-from .common import Context, Interface
+from mcl import ast
+from mcl.templates.common import Context, Interface
 
 
 def build(ctx: Context, node: ast.ParallelOr,

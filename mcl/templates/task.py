@@ -17,11 +17,11 @@ from __future__ import annotations
 
 from petri.net import POINT_FIELDS, RUN, Action
 
-from .. import ast, printer
-from ..checker import Resolved
-from ..tasklib import ActionSpec, Expr, Field
-from ..values import Unresolved, evaluate
-from .common import Context, Interface
+from mcl import ast, printer
+from mcl.checker import Resolved
+from mcl.tasklib import ActionSpec, Expr, Field
+from mcl.values import Unresolved, evaluate
+from mcl.templates.common import Context, Interface
 
 
 def build(ctx: Context, call: ast.Call) -> Interface:

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from .. import ast, printer
-from .common import Context, Interface
+from mcl import ast, printer
+from mcl.templates.common import Context, Interface
 
 
 def build(ctx: Context, node: ast.WhileDo,

@@ -72,9 +72,10 @@ def accepted(*_: Any, **__: Any) -> Any:
 @contextlib.contextmanager
 def no_links() -> Iterator[None]:
     """Every place a command would open a link, serve or install signal handlers."""
-    from vehicle import ardusub
-    from vehicle import zenoh_server as serve
-    from vehicle_adapters import mavlink_link, zenoh_link
+    from vehicle.servers import ardusub
+    from vehicle.servers import zenoh_server as serve
+    from vehicle_adapters import zenoh_link
+    from vehicle_adapters.mavlink import link as mavlink_link
 
     from app import monitor
 
@@ -461,12 +462,12 @@ def monitor_argv(draw: st.DrawFn) -> list[str]:
 def fuzz_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A genuine PNML and a genuine run log, the seeds of their mutations."""
     from mcl.api import compile_file
-    from petri.player import Player
-    from petri.pnml import write_pnml
-    from petri.runlog import RunLog, net_digest
-    from petri.runner import run
+    from petri.execution.player import Player
+    from petri.formats.pnml import write_pnml
+    from petri.execution.runlog import RunLog, net_digest
+    from petri.execution.runner import run
     from vehicle_adapters.inprocess import InProcess
-    from vehicle_adapters.scripted import ScriptedVehicle, load_script
+    from vehicle.scripted import ScriptedVehicle, load_script
 
     folder = tmp_path_factory.mktemp("fuzz")
     (folder / "seed.mcl").write_text(PARAMS, "utf-8")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from petri.runlog import read_log
+from petri.execution.runlog import read_log
 from tests.support import REPO, budget, subprocess_env
 
 DOC = REPO / "docs" / "EXTENDING.md"

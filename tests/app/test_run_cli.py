@@ -17,13 +17,13 @@ from pathlib import Path
 import pytest
 
 from mcl.api import compile_file
-from petri.player import Player
-from petri.replay import check
-from petri.runlog import RunLog, net_digest, read_log
-from petri.runner import run
+from petri.execution.player import Player
+from petri.execution.replay import check
+from petri.execution.runlog import RunLog, net_digest, read_log
+from petri.execution.runner import run
 from tests.support import MISSIONS, cli
 from vehicle_adapters.inprocess import InProcess
-from vehicle_adapters.scripted import ScriptedVehicle, load_script
+from vehicle.scripted import ScriptedVehicle, load_script
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
 VEHICLES = MISSIONS / "vehicles"

@@ -26,11 +26,11 @@ from typing import Any
 import pytest
 
 from mcl.api import compile_file
-from petri.player import Player, Record
-from petri.runner import MissionClock, run
+from petri.execution.player import Player, Record
+from petri.execution.runner import MissionClock, run
 from aal.messages import ActionMessage
 from vehicle_adapters.inprocess import InProcess
-from vehicle_adapters.scripted import ScriptedVehicle, parse_script
+from vehicle.scripted import ScriptedVehicle, parse_script
 
 from tests.support import BIN, MISSIONS, REPO, end, free_endpoint, free_udp_port, stop, write
 
@@ -337,7 +337,7 @@ def test_default_max_time_is_stated_and_derived_from_the_mission(tmp_path: Path)
 
 def test_the_simulated_stack_has_exactly_the_declared_behaviours() -> None:
     from app.safe_exit import _parameters, declared_behaviours
-    from vehicle.stack import IctineuStack
+    from vehicle.control.stack import IctineuStack
     from behaviours.capabilities import simulated
 
     library = declared_behaviours(simulated("sim"))
@@ -349,7 +349,7 @@ def test_the_simulated_stack_has_exactly_the_declared_behaviours() -> None:
 # -- one clock: mission time from the mission's start ------------------------------------------
 def test_mission_time_starts_at_0_whatever_the_vehicle_clock_reads(tmp_path: Path) -> None:
     compiled = compile_file(DAM, require_values=True)
-    from vehicle_adapters.scripted import load_script
+    from vehicle.scripted import load_script
 
     player = Player(compiled.net)
     seen: list[Record] = []

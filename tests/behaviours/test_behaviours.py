@@ -1,5 +1,5 @@
 """The vehicle's behaviours (behaviours/), the coordinator and the velocity controller
-(behaviours/coordinator.py, vehicle/controller.py), each on its own with hand-made perceptions.
+(behaviours/coordinator.py, vehicle/control/controller.py), each on its own with hand-made perceptions.
 
 Behaviours: the lifecycle (initialise / update / terminate, take_events), the events of AAL.md
 (each once per enable), the degrees of freedom each drives and its speed limits. Motion
@@ -33,7 +33,7 @@ from behaviours import (
     WallInspection,
 )
 from mcl import tasklib
-from vehicle.controller import DEFAULT_GAINS, VelocityController
+from vehicle.control.controller import DEFAULT_GAINS, VelocityController
 from behaviours.coordinator import PRIORITY, Coordinator
 
 DT = 0.1  # s between hand-made perceptions
@@ -600,7 +600,7 @@ def test_the_coordinator_counts_position_setpoints_like_demands() -> None:
 
 
 # --- the velocity controller --------------------------------------------------------------
-M_SURGE = 90.0  # kg: 60 kg + 30 kg added mass (vehicle/robot.py)
+M_SURGE = 90.0  # kg: 60 kg + 30 kg added mass (vehicle/world/robot.py)
 LIN, QUAD = 10.0, 90.0  # surge damping, N s/m and N s2/m2
 
 

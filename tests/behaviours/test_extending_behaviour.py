@@ -23,11 +23,11 @@ from app.safe_exit import _parameters, check_capabilities, declared_behaviours
 from behaviours import capabilities, registry
 from mcl import tasklib
 from mcl.api import compile_file
-from petri.player import Player, Record
-from petri.runner import Outcome, run
+from petri.execution.player import Player, Record
+from petri.execution.runner import Outcome, run
 from tests.support import REPO, cli
 from tests.behaviours.test_registry import disagreements
-from vehicle.stack import IctineuStack, StackConfig
+from vehicle.control.stack import IctineuStack, StackConfig
 from vehicle_adapters.inprocess import InProcess
 
 DOC = REPO / "docs" / "EXTENDING.md"

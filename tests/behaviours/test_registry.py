@@ -27,7 +27,7 @@ from behaviours.seabed import SEABED, statements
 from diagnostics import Source
 from mcl import tasklib
 from tests.support import MISSIONS, REPO
-from vehicle.stack import IctineuStack
+from vehicle.control.stack import IctineuStack
 
 LIBRARIES = (REPO / "mcl" / "tasks" / "ictineu.tasks", MISSIONS / "seabed.tasks")
 

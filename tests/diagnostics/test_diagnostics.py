@@ -18,9 +18,9 @@ from tests.test_layers import LAYERS, module_files
 
 # Exceptions that never reach a user: raised and caught inside the library, as control flow.
 INTERNAL = {
-    "petri.symbolic.SymbolicLimit": "the symbolic search's time budget ran out: the caller "
+    "petri.verification.symbolic.SymbolicLimit": "the symbolic search's time budget ran out: the caller "
                                     "falls back to the explicit search or reports the limit",
-    "petri.symbolic.NotOneSafe": "the net is not 1-safe: the caller falls back to the explicit "
+    "petri.verification.symbolic.NotOneSafe": "the net is not 1-safe: the caller falls back to the explicit "
                                  "search (or the report says the method does not apply)",
     "mcl.values.Unresolved": "a value that names a parameter not yet bound: the compiler and "
                              "the duration bounds catch it and go on symbolically",
@@ -45,7 +45,7 @@ def _exception_classes() -> dict[str, type[BaseException]]:
 
 def test_every_user_facing_exception_derives_from_mcl_error() -> None:
     classes = _exception_classes()
-    assert "diagnostics.MclError" in classes and "petri.pnml.PnmlError" in classes
+    assert "diagnostics.MclError" in classes and "petri.formats.pnml.PnmlError" in classes
     stray = sorted(name for name, cls in classes.items()
                    if not issubclass(cls, MclError) and name not in INTERNAL)
     assert not stray, ("exceptions a user can see that do not derive from diagnostics.MclError "
@@ -113,7 +113,7 @@ def test_diagnostics_as_before() -> None:
 # -- each error, from real bad input, says where ------------------------------------------------
 
 def test_a_broken_pnml_file(tmp_path: Path) -> None:
-    from petri.pnml import PnmlError, read_pnml
+    from petri.formats.pnml import PnmlError, read_pnml
 
     path = tmp_path / "broken.pnml"
     path.write_text('<pnml xmlns="http://www.pnml.org/version-2009/grammar/pnml">\n'
@@ -130,8 +130,8 @@ def test_a_broken_pnml_file(tmp_path: Path) -> None:
 
 
 def _run_log(path: Path) -> None:
-    from petri.player import Record
-    from petri.runlog import RunLog
+    from petri.execution.player import Record
+    from petri.execution.runlog import RunLog
 
     with RunLog(path, {"mission": "m.mcl", "net": "0" * 16}) as log:
         log(Record(0.5, "fire", {"transition": "t0"}))
@@ -139,7 +139,7 @@ def _run_log(path: Path) -> None:
 
 
 def test_a_truncated_run_log(tmp_path: Path) -> None:
-    from petri.runlog import LogError, read_log
+    from petri.execution.runlog import LogError, read_log
 
     path = tmp_path / "run.jsonl"
     _run_log(path)
@@ -157,7 +157,7 @@ def test_a_truncated_run_log(tmp_path: Path) -> None:
 
 
 def test_a_run_log_record_that_is_not_json(tmp_path: Path) -> None:
-    from petri.runlog import LogError, read_log
+    from petri.execution.runlog import LogError, read_log
 
     path = tmp_path / "run.jsonl"
     _run_log(path)
@@ -172,7 +172,7 @@ def test_a_run_log_record_that_is_not_json(tmp_path: Path) -> None:
 
 
 def test_an_unreadable_run_log_names_the_file(tmp_path: Path) -> None:
-    from petri.runlog import LogError, read_log
+    from petri.execution.runlog import LogError, read_log
 
     with pytest.raises(LogError) as info:
         read_log(tmp_path)
@@ -181,7 +181,7 @@ def test_an_unreadable_run_log_names_the_file(tmp_path: Path) -> None:
 
 
 def test_a_bad_toml_script(tmp_path: Path) -> None:
-    from vehicle_adapters.scripted import ScriptError, load_script
+    from vehicle.scripted import ScriptError, load_script
 
     path = tmp_path / "v.toml"
     path.write_text('tasks = ["ictineu"]\n[behaviours.GoTo]\n'
@@ -198,7 +198,7 @@ def test_a_bad_toml_script(tmp_path: Path) -> None:
 
 
 def test_a_bad_value_in_a_valid_toml_script(tmp_path: Path) -> None:
-    from vehicle_adapters.scripted import ScriptError, load_script
+    from vehicle.scripted import ScriptError, load_script
 
     path = tmp_path / "v.toml"
     path.write_text('[[at]]\ntime = 1\nevent = "Alarms.leak"\n\n[[at]]\n  time = -2\n'
@@ -211,7 +211,7 @@ def test_a_bad_value_in_a_valid_toml_script(tmp_path: Path) -> None:
 
 
 def test_a_script_naming_an_undeclared_behaviour(tmp_path: Path) -> None:
-    from vehicle_adapters.scripted import ScriptError, check_script, load_script
+    from vehicle.scripted import ScriptError, check_script, load_script
 
     path = tmp_path / "v.toml"
     path.write_text('tasks = ["ictineu"]\n\n[behaviours.Hover]\n'

@@ -17,7 +17,7 @@ import pytest
 from mcl import ast, parser, printer
 from mcl.api import compile_file
 from diagnostics import Source
-from petri.verify import verify
+from petri.verification.properties import verify
 from tests.support import MISSIONS, cli
 
 GOLDEN = Path(__file__).parents[1] / "golden"

@@ -27,7 +27,7 @@ from mcl.api import compile_source
 from diagnostics import Diagnostic, MclError, Source, Span
 from mcl.parser import parse
 from petri.net import Net
-from petri.verify import verify
+from petri.verification.properties import verify
 from tests import strategies as S
 from tests.support import GENERIC_TASKS, MISSIONS, cli, write
 

@@ -17,12 +17,14 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mcl import printer, structural
+from mcl import printer
+
+from mcl.analysis import structural
 from mcl.api import Compiled, compile_source
 from diagnostics import Source
 from mcl.tasklib import load_sources
-from mcl.verification import merge, verify_mission
-from petri.verify import Verdict, verify
+from mcl.analysis.verification import merge, verify_mission
+from petri.verification.properties import Verdict, verify
 from tests.strategies import route_libraries, route_missions
 from tests.support import REPO
 

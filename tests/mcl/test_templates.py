@@ -19,7 +19,7 @@ from mcl import tasklib
 from mcl.api import Compiled, compile_source
 from diagnostics import Source
 from mcl.templates import common
-from petri.verify import Verdict, verify
+from petri.verification.properties import Verdict, verify
 from tests.support import GENERIC_TASKS
 
 LIBRARY = tasklib.load_sources([Source("generic.tasks", GENERIC_TASKS)])

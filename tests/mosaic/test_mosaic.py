@@ -16,7 +16,7 @@ from app import mosaic as cli
 from mosaic import accuracy, alignment, build, illumination, registration
 from mosaic.projection import Intrinsics as K
 from mosaic.projection import apply, homography, pose_from_world
-from vehicle.camera import ImageRecorder, Intrinsics, TextureSpec, WallCamera, WallTexture, wall_hits
+from vehicle.sensors.camera import ImageRecorder, Intrinsics, TextureSpec, WallCamera, WallTexture, wall_hits
 
 SPEC = TextureSpec(seed=7, y_range=(-1.0, 4.0), z_range=(0.0, 3.5))
 KK = K(**Intrinsics().__dict__)
@@ -200,7 +200,7 @@ def test_the_stack_keeps_its_images_and_mcl_run_reports_the_mosaic(tmp_path: Pat
     """The hook of ``mcl run``: the simulated stack's camera renders and writes each image
     with the navigation data of the instant; the report builds the mosaic beside the log."""
     from mosaic.hook import attach, report
-    from vehicle.stack import IctineuStack, StackConfig
+    from vehicle.control.stack import IctineuStack, StackConfig
 
     stack = IctineuStack(StackConfig(seed=3, start=(-1.5, 2.0, 2.0, 0.0)))
     log = tmp_path / "run.jsonl"

@@ -1,6 +1,6 @@
 """A reported violation is real: its counterexample, fed to the player, reproduces it.
 
-Random missions over tasks that drive degrees of freedom (tests/mcl/test_structural.py's library)
+Random missions over tasks that drive degrees of freedom (tests/mcl/analysis/test_structural.py's library)
 are verified explicitly; for every DOF conflict or behaviour left on that the verifier
 reports, its shortest firing sequence is fired on the real-time player step by step, and the
 player — which tracks behaviours by the actions it sends, not by the net's places — must show
@@ -17,9 +17,9 @@ from hypothesis import HealthCheck, Phase, given, settings
 from mcl import ast, printer
 from mcl.api import compile_source
 from diagnostics import Source
-from petri.player import Player
-from petri.verify import verify
-from tests.mcl.test_structural import LIBRARY, blocks
+from petri.execution.player import Player
+from petri.verification.properties import verify
+from tests.mcl.analysis.test_structural import LIBRARY, blocks
 
 COUNTS = {"checked": 0, "shared": 0, "lassos": 0}
 

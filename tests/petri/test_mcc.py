@@ -11,11 +11,11 @@ from pathlib import Path
 
 import pytest
 
-from petri import reachability as rg
-from petri import symbolic
+from petri.verification import reachability as rg
+from petri.verification import symbolic
 from petri.net import Net
-from petri.pnml import read_pnml
-from petri.pnml_report import analyse
+from petri.formats.pnml import read_pnml
+from petri.verification.pnml_report import analyse
 
 MCC = Path(__file__).resolve().parents[3] / "shared" / "mcc"
 pytestmark = pytest.mark.skipif(not (MCC / "ORACLE.tsv").is_file(),

@@ -1,7 +1,7 @@
 """Run logs are evidence (issue 12, point 3): ``mcl replay`` refuses any log that is not
 exactly what the run wrote, and names the first record that is not.
 
-Every record carries a digest chained over the records before it (petri/runlog.py), so an
+Every record carries a digest chained over the records before it (petri/execution/runlog.py), so an
 edit anywhere — a record dropped, moved, inserted or changed — breaks the chain at that
 record; a log cut at a line boundary lacks its end record; a header-only log is refused; a
 malformed record is an error with its line number (exit 1), never an internal error. The net's
@@ -26,13 +26,13 @@ from hypothesis import strategies as st
 
 from mcl.api import compile_file
 from app import mcl
-from petri.player import Player
-from petri.replay import check
-from petri.runlog import FORMAT, GENESIS, RunLog, canonical, net_digest, read_log, verify
-from petri.runner import run
+from petri.execution.player import Player
+from petri.execution.replay import check
+from petri.execution.runlog import FORMAT, GENESIS, RunLog, canonical, net_digest, read_log, verify
+from petri.execution.runner import run
 from tests.support import MISSIONS
 from vehicle_adapters.inprocess import InProcess
-from vehicle_adapters.scripted import ScriptedVehicle, load_script
+from vehicle.scripted import ScriptedVehicle, load_script
 
 DAM = MISSIONS / "dam_inspection.mcl"
 DAM_OK = MISSIONS / "vehicles" / "dam.toml"

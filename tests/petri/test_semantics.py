@@ -1,5 +1,5 @@
-"""One semantics for the verifier and the player (petri/semantics.py, petri/verify.py,
-petri/player.py; issue 11): termination proved without the external stop (a lasso when it
+"""One semantics for the verifier and the player (petri/semantics.py, petri/verification/properties.py,
+petri/execution/player.py; issue 11): termination proved without the external stop (a lasso when it
 fails), Zeno loops refused and never spun on, sound verdicts (undecided when cut), shared
 watchers, disables that would switch off a behaviour another task holds, events never lost
 to a tie, and the player's runs are paths of the verified reachability graph.
@@ -22,10 +22,10 @@ from mcl import printer, tasklib
 from mcl.api import compile_source
 from diagnostics import Source
 from petri.net import Net
-from petri.player import Player, Record
-from petri.reachability import explore
+from petri.execution.player import Player, Record
+from petri.verification.reachability import explore
 from petri.semantics import Semantics
-from petri.verify import Result, verify
+from petri.verification.properties import Result, verify
 from tests import strategies as S
 
 MCLC = [sys.executable, "-m", "app.mclc"]
@@ -306,8 +306,8 @@ def test_timers_decide_a_clash_the_player_cannot_reach() -> None:
 
 def test_replay_refuses_a_timer_fired_late_even_with_the_digests_recomputed(
         tmp_path: Path) -> None:
-    from petri.replay import check
-    from petri.runlog import RunLog, net_digest, read_log
+    from petri.execution.replay import check
+    from petri.execution.runlog import RunLog, net_digest, read_log
 
     net = compile_text("MISSION { Wait(5 s); Wait(3 s) }")
     path = tmp_path / "run.jsonl"

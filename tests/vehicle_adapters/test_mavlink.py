@@ -31,11 +31,11 @@ from typing import Any
 import pytest
 
 from mcl.api import compile_file
-from petri.player import Player, Record
-from petri.runner import run
-from vehicle.stack import IctineuStack, StackConfig
+from petri.execution.player import Player, Record
+from petri.execution.runner import run
+from vehicle.control.stack import IctineuStack, StackConfig
 from vehicle_adapters.inprocess import InProcess
-from vehicle_adapters.mavlink_link import MODES, MavlinkVehicle, mavutil
+from vehicle_adapters.mavlink.link import MODES, MavlinkVehicle, mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: I001  (MAVLink 2 is set)
 
 from tests.support import BIN, MISSIONS, REPO, budget, end, free_udp_port, started, stop

@@ -23,10 +23,10 @@ import pytest
 zenoh = pytest.importorskip("zenoh")
 
 from mcl.api import compile_file  # noqa: E402
-from petri.player import Player, Record  # noqa: E402
-from petri.runner import run  # noqa: E402
-from petri.status import task_calls  # noqa: E402
-from vehicle.stack import IctineuStack, StackConfig  # noqa: E402
+from petri.execution.player import Player, Record  # noqa: E402
+from petri.execution.runner import run  # noqa: E402
+from petri.execution.status import task_calls  # noqa: E402
+from vehicle.control.stack import IctineuStack, StackConfig  # noqa: E402
 from aal.messages import ActionMessage  # noqa: E402
 from vehicle_adapters.inprocess import InProcess  # noqa: E402
 from aal.zenoh import LEASE_MS, keys, zenoh_config  # noqa: E402

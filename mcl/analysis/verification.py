@@ -1,0 +1,134 @@
+"""Choosing how to verify a compiled mission: explicit, structural, or auto.
+
+* ``explicit`` (petri/verification/properties.py): every reachable marking, exact, with counterexamples; stops at
+  a limit of markings (derived from the memory budget too) and then says undecided for what
+  the part it saw cannot decide.
+* ``structural`` (mcl/analysis/structural.py): templates verified with generic children, outcomes and
+  behaviours decided on the syntax tree; never enumerates the mission's state space.
+* ``auto``: estimates the explicit route's memory (estimated markings × bytes per marking,
+  plus the net itself) against the budget; under it, runs the explicit route with a marking
+  limit that keeps it under the budget, and if that exploration is cut, completes the verdict
+  with the structural route (a violation the explicit route saw stays: it is real); over it,
+  runs the structural route. It never exhausts memory and never fails for want of it.
+
+Each property's ``method`` says which route established it.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from petri.verification.properties import Result, Verdict, undecided
+
+if TYPE_CHECKING:
+    from petri.net import Net
+
+    from mcl.api import Compiled
+
+METHODS = ("auto", "explicit", "structural")
+MAX_MARKINGS = 5_000_000
+MAX_BYTES = 1 << 30  # the memory the explicit route may use: 1 GiB
+# The explicit route holds each marking as a row of one byte per place (padded to 8 bytes),
+# and its analyses make a few copies of that matrix (booleans, behaviours on); the arcs of
+# the graph (three 32-bit integers each, a few arcs per marking) come on top.
+COPIES = 4
+ARC_BYTES = 12 * 4  # bytes of arcs per marking (about four arcs per marking)
+
+
+def bytes_per_marking(net: Net) -> int:
+    """One byte per place, rounded up to whole 8-byte words."""
+    return -(-len(net.places) // 8) * 8
+
+
+def explicit_cost(net: Net, markings: float) -> float:
+    """Bytes the explicit route needs for ``markings`` markings of ``net``."""
+    per = bytes_per_marking(net) * COPIES + ARC_BYTES
+    return markings * per + net_bytes(net)
+
+
+def net_bytes(net: Net) -> float:
+    """Bytes of the net itself as the explicit route holds it: its arcs, a few words each,
+    and, where the net still offers them (``Net.pre``), the dense place × transition input
+    and output matrices (64-bit) the exploration builds."""
+    places, transitions = len(net.places), len(net.transitions)
+    dense = 16.0 * places * transitions if hasattr(net, "pre") else 0.0
+    return 64.0 * (net.arc_count() + places + transitions) + dense
+
+
+def marking_limit(net: Net, max_markings: int, max_bytes: int) -> int:
+    """The most markings the explicit route may enumerate within ``max_bytes``."""
+    per = bytes_per_marking(net) * COPIES + ARC_BYTES
+    room = (max_bytes - net_bytes(net)) // per
+    return int(max(0, min(max_markings, room, 2**31 - 1)))
+
+
+def verify_mission(compiled: Compiled, method: str = "auto", max_markings: int = MAX_MARKINGS,
+                   max_bytes: int = MAX_BYTES) -> Verdict:
+    """Verify a compiled mission by ``method`` ("auto", "explicit" or "structural")."""
+    from petri.verification.properties import verify
+
+    from mcl.analysis.structural import analyse, mission_estimate
+
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}: one of {', '.join(METHODS)}")
+    net = compiled.net
+    if method == "structural":
+        return analyse(compiled.checked, net)
+    limit = marking_limit(net, max_markings, max_bytes)
+    if method == "explicit":
+        if limit < 1:
+            return _too_big(net, max_bytes)
+        return verify(net, max_markings=limit)
+    estimate = mission_estimate(compiled.checked)
+    budget = f"{max_bytes / 2**20:,.0f} MiB"
+    if limit < 1 or explicit_cost(net, estimate) > max_bytes or estimate > limit:
+        why = (f"auto: about {estimate:,.0f} markings estimated, over the explicit route's "
+               f"budget of {limit:,} markings ({budget})")
+        return analyse(compiled.checked, net, note=why)
+    explicit = verify(net, max_markings=limit)
+    if not any(r.undecided or (r.name == "complete" and not r.holds)
+               for r in explicit.results if r.severity == "error"):
+        return explicit
+    cut = explicit.markings >= limit
+    why = (f"auto: the explicit route stopped at {explicit.markings:,} markings "
+           f"(limit {limit:,}, {budget})" if cut else "auto: undecided by the explicit route")
+    return merge(explicit, analyse(compiled.checked, net, note=why), cut)
+
+
+def merge(explicit: Verdict, structural: Verdict, cut: bool = True) -> Verdict:
+    """One verdict from the explicit route and the structural route: per property, what the
+    explicit route established — a violation it saw is real even in a cut exploration, but a
+    cut exploration proves nothing holds — else the structural route's result."""
+    seen = {r.name: r for r in explicit.results if r.name != "complete"}
+    out = Verdict(explicit.net, explicit.markings, explicit.arcs,
+                  explicit.seconds + structural.seconds)
+    out.witnesses = explicit.witnesses
+    out.dead_transitions = explicit.dead_transitions
+    names = [r.name for r in structural.results]
+    names += [n for n in seen if n not in names]
+    mine = {r.name: r for r in structural.results}
+    for name in names:
+        first = seen.get(name)
+        other = mine.get(name)
+        if first is not None and (first.status == "fails" or other is None
+                                  or (first.status == "holds" and not cut)):
+            out.results.append(first)
+        elif other is not None:
+            out.results.append(other)
+    return out
+
+
+def _too_big(net: Net, max_bytes: int) -> Verdict:
+    why = (f"undecided: the net ({len(net.places):,} places, {len(net.transitions):,} "
+           f"transitions) leaves no room for markings in {max_bytes / 2**20:,.0f} MiB")
+    verdict = Verdict(net, 0, 0, 0.0)
+    for name in ("one-safe", "proper-completion", "no-deadlock", "terminates", "no-zeno",
+                 "behaviours-off-at-end", "behaviour-single-owner", "dof-exclusive",
+                 "no-disable-while-held", "stop-safe"):
+        verdict.results.append(undecided(name, why, "explicit (not run)"))
+    from petri.verification.properties import _actions_match
+
+    verdict.results.append(_actions_match(net))
+    verdict.results.append(Result("no-dead-transitions", False, "warning", why,
+                                  "explicit (not run)", undecided=True))
+    return verdict

@@ -1,0 +1,305 @@
+"""The real-time Petri-net player (paper 002 §3.2): it runs the very net that was verified.
+
+It holds the marking, fires transitions, sends their actions, and waits for events and
+timers. The rules, in order of precedence:
+
+1. *Immediate* transitions (no event, no timer) fire as soon as they are enabled, until none
+   is enabled: those that carry an abort first (they put a token in, or take one from, an
+   ``abort`` place), then the others, lowest index first. Aborts first means a block that is
+   being stopped does not start anything new in the same instant. A firing sends its actions
+   in the same step, so a task's stop actions always go out before its block reports back
+   (MCL.md's abort rule).
+2. A *timed* transition fires when it has been enabled without interruption for its time, at
+   that time: timers that fall due before an event are fired before the event is handled.
+3. An *event* fires every transition enabled and waiting for it, lowest index first, each at
+   most once (one that an earlier firing of the same event disabled does not fire). An event
+   nobody waits for is logged and ignored; ``Link.lost`` that no block waits for aborts the
+   mission (the ``Mission.abort`` transition).
+
+Time comes from outside (``now`` arguments): simulated time and wall time run the same code.
+The same events at the same times give the same firings. Everything the player does is
+reported to its observers as records (see :class:`Record`).
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from petri.net import Action, Net, resolve
+from petri.semantics import LINK_LOST, MISSION_ABORT, Semantics, block_of
+
+MAX_IMMEDIATE_FIRINGS = 1_000_000  # per step: a bound on any loop, never reached by a sound net
+
+__all__ = ["LINK_LOST", "MISSION_ABORT", "Player", "Record"]
+
+
+@dataclass(frozen=True)
+class Record:
+    """One thing that happened: kind is "fire", "action", "event", "ignored", "status",
+    "note". ``data`` holds the details (JSON-ready)."""
+
+    t: float
+    kind: str
+    data: dict[str, Any]
+
+
+@dataclass
+class Player:
+    net: Net
+    params: dict[str, Any] = field(default_factory=dict)  # values of unresolved parameters
+    observers: list[Callable[[Record], None]] = field(default_factory=list)
+    marking: list[int] = field(init=False)
+    enabled_since: dict[int, float] = field(init=False, default_factory=dict)
+    behaviours_on: dict[str, str] = field(init=False, default_factory=dict)  # -> task
+    status: str = field(init=False, default="ready")  # ready | running | ok | fail
+    fired: int = field(init=False, default=0)
+
+    def __post_init__(self) -> None:
+        self.rules = Semantics(self.net)
+        self.marking = self.rules.initial()
+        self._candidates = [self.rules.rank[i] for i, im in enumerate(self.rules.immediate)
+                            if im]
+        heapq.heapify(self._candidates)  # a heap of (rank, index)
+        self._queued = {i for _, i in self._candidates}
+        self._clock = float("-inf")  # the time of the last firing: never goes back
+        self._instant: dict[int, float] = {}  # transition -> the instant it last fired at
+
+    # -- the three ways a transition fires -------------------------------------------------
+    def start(self, now: float) -> None:
+        self.status = "running"
+        self._clock = now
+        self._emit(now, "status", {"status": "running"})
+        self._arm_timers(now)
+        self.settle(now)
+
+    def enabled(self, t: int) -> bool:
+        return self.rules.enabled(self.marking, t)
+
+    def settle(self, now: float, before: bool = False) -> None:
+        """Fire immediate transitions and the timers due by ``now`` (``before``: due strictly
+        before it), in time order, until nothing more can fire. A transition that would fire
+        twice in one instant means a loop that goes round without time passing (a Zeno
+        cycle, which ``mclc`` refuses): the player aborts the mission instead of spinning."""
+        for _ in range(MAX_IMMEDIATE_FIRINGS):
+            if self.finished:
+                break
+            t = self._next_immediate()
+            cause = "immediate"
+            if t is None:
+                due = self._next_timer(now - 2e-9 if before else now)
+                if due is None:
+                    break
+                t, when = due
+                self._clock = max(self._clock, when)
+                cause = "timer"
+            if self._instant.get(t) == self._clock and self.status == "running":
+                tr = self.net.transitions[t]
+                where = f" at line {tr.origin.line}" if tr.origin else ""
+                self.abort(self._clock, f"a loop goes round without time passing ({tr.name}"
+                                        f"{where} fires twice at {self._clock:g} s)")
+                break
+            self._instant[t] = self._clock
+            self._fire(t, self._clock, cause)
+            self._check_end(self._clock)
+        else:
+            self.abort(self._clock, "more than a million firings without time passing")
+        if not before:
+            self._clock = max(self._clock, now)
+        self._check_end(self._clock)
+
+    def _next_immediate(self) -> int | None:
+        # Only a transition that reads a place that gained a token can have become enabled:
+        # those are the candidates, examined in rank order.
+        while self._candidates:
+            _, t = self._candidates[0]
+            if self.enabled(t):
+                return t
+            heapq.heappop(self._candidates)
+            self._queued.discard(t)
+        return None
+
+    def _next_timer(self, now: float) -> tuple[int, float] | None:
+        """The timer that falls due first, if it falls due by ``now`` (ties: lowest index)."""
+        best: tuple[float, int] | None = None
+        for t, since in self.enabled_since.items():
+            when = since + self._seconds(t)
+            if when <= now + 1e-9 and (best is None or (when, t) < best):
+                best = (when, t)
+        return None if best is None else (best[1], best[0])
+
+    def handle_event(self, event: str, now: float, data: dict[str, Any] | None = None) -> int:
+        """Fire what waits for ``event``; returns how many transitions fired.
+
+        Timers due before the event fire first. A timer due at the very instant of the event
+        is a tie: the event goes first if some transition waits for it; if none does yet, the
+        tied timers fire and the event is offered again (a watcher that a timer starts in
+        that instant still gets it: no event is lost to a tie)."""
+        self.settle(now, before=True)
+        self._clock = max(self._clock, now)
+        if self.finished:
+            self._emit(now, "ignored", {"event": event, "reason": "the mission has ended"})
+            return 0
+        waiting = self._waiting_for(event)
+        if not waiting:
+            self.settle(now)  # the ties
+            waiting = [] if self.finished else self._waiting_for(event)
+        if not waiting and event == LINK_LOST and not self.finished:
+            waiting = [t for t in self.rules.stops if self.enabled(t)]
+            if waiting:
+                self._emit(now, "note", {"note": "Link.lost and no block catches it: the "
+                                                 "mission is aborted"})
+        if not waiting:
+            reason = "the mission has ended" if self.finished else "nobody waits for it"
+            self._emit(now, "ignored", {"event": event, "reason": reason})
+            return 0
+        self._emit(now, "event", {"event": event, "data": data or {}})
+        self._instant.clear()  # an event starts a new chain of firings in this instant
+        count = 0
+        for t in waiting:
+            if self.enabled(t):
+                self._instant[t] = self._clock
+                self._fire(t, now, event)
+                count += 1
+        self.settle(now)
+        return count
+
+    def _waiting_for(self, event: str) -> list[int]:
+        return [t for t in self.rules.waiting.get(event, []) if self.enabled(t)]
+
+    def abort(self, now: float, reason: str) -> None:
+        """Stop the mission from outside (an operator, a limit, a signal, a lost link): the
+        ``Mission.abort`` transition fires, the blocks stop their tasks and switch their
+        latched behaviours off (immediate firings, all at ``now``), and the mission ends fail.
+        Anything still on after that is switched off too. Does nothing once it has ended."""
+        if self.finished:
+            return
+        self._clock = max(self._clock, now)
+        self._emit(self._clock, "note", {"note": f"mission aborted: {reason}"})
+        if self.status == "running":
+            for t in self.rules.stops:
+                if self.enabled(t):
+                    self._fire(t, self._clock, "abort")
+            self._settle_immediate()
+        self.status = "running"  # so that _check_end reports (and switches off what is on)
+        self._check_end(self._clock)
+        if not self.finished:  # the net could not end (a bug, or not started): end it here
+            for b in sorted(self.behaviours_on):
+                self._send(Action("disable", b), "MISSION", self._clock, last_resort=True)
+            self.status = "fail"
+            self._emit(self._clock, "status", {"status": "fail"})
+
+    def _settle_immediate(self) -> None:
+        for _ in range(MAX_IMMEDIATE_FIRINGS):
+            t = self._next_immediate()
+            if t is None:
+                return
+            self._fire(t, self._clock, "immediate")
+
+    def fire(self, t: int, now: float, cause: str = "replay") -> None:
+        """Fire one given transition (it must be enabled): for replaying a firing sequence,
+        such as a verifier's counterexample, step by step."""
+        if not self.enabled(t):
+            raise ValueError(f"{self.net.transitions[t].name} is not enabled")
+        self._fire(t, now, cause)
+
+    # -- time ---------------------------------------------------------------------------------
+    def next_deadline(self) -> float | None:
+        """When the earliest armed timer falls due (None if no timer is armed)."""
+        deadlines = [since + self._seconds(t) for t, since in self.enabled_since.items()]
+        return min(deadlines) if deadlines else None
+
+    def _seconds(self, t: int) -> float:
+        return self.rules.seconds(t, self.params)
+
+    def _arm_timers(self, now: float) -> None:
+        for t in self.rules.timed:
+            if self.enabled(t):
+                self.enabled_since.setdefault(t, now)
+            else:
+                self.enabled_since.pop(t, None)
+
+    # -- firing ---------------------------------------------------------------------------
+    def _fire(self, t: int, now: float, cause: str) -> None:
+        tr = self.net.transitions[t]
+        self.rules.fire(self.marking, t)
+        self.fired += 1
+        task = block_of(tr.name)
+        self._emit(now, "fire", {"transition": tr.name, "index": t, "cause": cause,
+                                 "label": tr.label, "construct": tr.origin.text if tr.origin
+                                 else "", "line": tr.origin.line if tr.origin else None})
+        for action in tr.actions:
+            self._send(action, task, now)
+        rules = self.rules
+        for p, _ in tr.outputs:
+            for r in rules.readers[p]:
+                if rules.immediate[r] and r not in self._queued:
+                    heapq.heappush(self._candidates, rules.rank[r])
+                    self._queued.add(r)
+        self._rearm_after(tr.inputs + tr.outputs, now)
+
+    def _rearm_after(self, arcs: tuple[tuple[int, int], ...], now: float) -> None:
+        touched = {t for p, _ in arcs for t in self.rules.readers[p]
+                   if self.net.transitions[t].timer is not None}
+        for t in touched:
+            if self.enabled(t):
+                self.enabled_since.setdefault(t, now)
+            else:
+                self.enabled_since.pop(t, None)
+
+    def _send(self, action: Action, task: str, now: float, last_resort: bool = False) -> None:
+        """Send an action. A ``disable`` that leaves another holder of the behaviour (a
+        watcher shared by several tasks, a latch) is not sent: it stays on until the last
+        holder lets go. ``last_resort``: the player's own switch-off at the end."""
+        params = {k: self._resolve(v) for k, v in action.params}
+        if action.kind == "disable":
+            holders = [] if last_resort else self.rules.held(self.marking, action.behaviour)
+            if holders:
+                names = ", ".join(block_of(self.net.places[p].name) for p in holders)
+                self._emit(now, "note", {"note": f"{action.behaviour} stays on: still held "
+                                                 f"by {names}", "task": task})
+                return
+            self.behaviours_on.pop(action.behaviour, None)
+        elif action.kind == "enable":
+            self.behaviours_on[action.behaviour] = task
+        self._emit(now, "action", {"action": action.kind, "behaviour": action.behaviour,
+                                   "params": params, "task": task})
+
+    def _resolve(self, value: Any) -> Any:
+        if isinstance(value, dict) and "param" in value and value["param"] not in self.params:
+            raise ValueError(f"parameter {value['param']!r} has no value")
+        return resolve(value, self.params)
+
+    def _check_end(self, now: float) -> None:
+        if self.status != "running":
+            return
+        status = self.rules.end_status(self.marking)
+        if status is None:
+            return
+        self.status = status
+        if self.behaviours_on:  # the last line of defence (MCL.md)
+            left = sorted(self.behaviours_on)
+            self._emit(now, "note", {"note": "switching off behaviours left on at the "
+                                             f"end: {', '.join(left)}"})
+            for b in left:
+                self._send(Action("disable", b), "MISSION", now, last_resort=True)
+        self._emit(now, "status", {"status": status})
+
+    def _emit(self, now: float, kind: str, data: dict[str, Any]) -> None:
+        record = Record(now, kind, data)
+        for observe in self.observers:
+            observe(record)
+
+    # -- for observers ----------------------------------------------------------------------
+    @property
+    def finished(self) -> bool:
+        return self.status in ("ok", "fail")
+
+    def snapshot(self) -> dict[str, Any]:
+        """The current marking, running tasks and enabled behaviours (for monitors)."""
+        marked = [self.net.places[p].name for p, n in enumerate(self.marking) if n]
+        return {"status": self.status, "marking": marked,
+                "running_tasks": self.rules.running_tasks(self.marking),
+                "behaviours_on": sorted(self.behaviours_on), "fired": self.fired}

@@ -1,0 +1,122 @@
+"""The mission's status as an operator sees it: which tasks run, how far along, what last
+happened. A player observer keeps it up to date; adapters publish it (Zenoh:
+``mcl/<vehicle>/mission/status``) and ``mcl monitor`` shows it.
+
+The status is one small JSON object (``v`` 1)::
+
+    {"v": 1, "mission": "dam_inspection", "run": "…", "t": 123.4, "clock": 123.5,
+     "status": "running",
+     "running": [{"task": "WallInspection@31:9", "since": 100.2}], "done": 5, "total": 17,
+     "behaviours": ["AchieveHeadDist", "StartCamera", "WallInspection"], "fired": 80,
+     "last_event": {"t": 98.1, "event": "GoTo.reached"},
+     "last_action": {"t": 100.2, "action": "enable", "behaviour": "WallInspection"}}
+
+``total`` counts the task calls of the mission (each ``Task@line:col`` once), ``done`` those
+that have started and are no longer running (ended, or never run because their block was
+aborted before them is not counted); a task in a loop counts once. ``t`` is mission time (0 at
+the mission's start; the player runs on it, petri/execution/runner.py) at the last change, ``clock`` the
+vehicle's clock then (``vehicle_time(t)``; the same as ``t`` without one): a monitor adds the
+vehicle clock's progress since, and shows the vehicle's clock beside mission time.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from petri.execution.player import Player, Record
+from petri.semantics import block_of
+
+VERSION = 1
+
+
+def task_calls(player: Player) -> list[str]:
+    """The task calls of the net, in source order (``GoTo@12:9``)."""
+    calls = {_call(t.name) for t in player.net.transitions
+             if t.origin is not None and t.origin.kind == "task"}
+    return sorted(calls, key=_source_order)
+
+
+_call = block_of
+
+
+def _source_order(call: str) -> tuple[int, int, str]:
+    _, _, where = call.rpartition("@")
+    line, _, col = where.partition(":")
+    try:
+        return int(line), int(col), call
+    except ValueError:
+        return 1 << 30, 0, call
+
+
+class MissionStatus:
+    """A player observer (append it to ``player.observers``) that keeps the status.
+
+    ``publish``: called with the status dict whenever it changes in a way an operator would
+    see (a task starts or ends, an action, an event, the mission's status), at most once per
+    record.
+    """
+
+    def __init__(self, player: Player, mission: str, run: str = "",
+                 publish: Any = None, vehicle_time: Callable[[float], float] | None = None):
+        self.player = player
+        self.mission = mission
+        self.run = run
+        self.publish = publish
+        self.vehicle_time = vehicle_time
+        self.calls = set(task_calls(player))
+        self.total = len(self.calls)
+        # the places that hold a running task's token (as Player.snapshot reads them), indexed
+        # once: this observer runs at every firing, on the player's path from event to action
+        self._run_places = [(i, block_of(player.net.places[i].name))
+                            for i in player.rules.run_places]
+        self.since: dict[str, float] = {}  # running task call -> mission time it started
+        self.started: set[str] = set()  # task calls that have fired a transition
+        self.start: float | None = None
+        self.t = 0.0
+        self.clock = 0.0  # the player's clock (the vehicle's) at mission time t
+        self.last_event: dict[str, Any] | None = None
+        self.last_action: dict[str, Any] | None = None
+
+    def __call__(self, record: Record) -> None:
+        if self.start is None:
+            self.start = record.t
+        self.t = record.t - self.start
+        self.clock = self.vehicle_time(record.t) if self.vehicle_time else record.t
+        d = record.data
+        if record.kind == "event":
+            self.last_event = {"t": round(self.t, 3), "event": d["event"]}
+        elif record.kind == "action":
+            self.last_action = {"t": round(self.t, 3), "action": d["action"],
+                                "behaviour": d["behaviour"], "task": d["task"]}
+        elif record.kind != "status":
+            if record.kind == "fire":
+                call = _call(d["transition"])
+                if call in self.calls:
+                    self.started.add(call)
+                self._update_running()
+            return
+        self._update_running()
+        if self.publish is not None:
+            self.publish(self.view())
+
+    def _update_running(self) -> None:
+        marking = self.player.marking
+        running = {call for index, call in self._run_places if marking[index]}
+        for call in list(self.since):
+            if call not in running:
+                del self.since[call]
+        for call in running:
+            self.since.setdefault(call, self.t)
+
+    def view(self) -> dict[str, Any]:
+        """The status now (JSON-ready)."""
+        snap = self.player.snapshot()
+        return {"v": VERSION, "mission": self.mission, "run": self.run,
+                "t": round(self.t, 3), "clock": round(self.clock, 3), "status": snap["status"],
+                "running": [{"task": c, "since": round(s, 3)}
+                            for c, s in sorted(self.since.items(),
+                                               key=lambda kv: _source_order(kv[0]))],
+                "done": len(self.started - self.since.keys()), "total": self.total,
+                "behaviours": snap["behaviours_on"], "fired": snap["fired"],
+                "last_event": self.last_event, "last_action": self.last_action}

@@ -1,0 +1,142 @@
+"""The breadth-first search of :mod:`petri.verification.reachability` in plain numpy (no numba).
+
+It expands one BFS level at a time with array operations: the marked places of the level's rows
+give the candidate transitions (those indexed under a marked place, see
+:func:`petri.verification.reachability.compile_net`), their input arcs are checked, and the enabled ones fire
+through their sparse effects; then successors are put in (marking, transition) order
+and looked up among the known markings, kept as a sorted array of row keys (each row seen as one
+fixed-width ``void`` value, compared bytewise). New markings are numbered in order of first
+discovery, so the numbering, arcs and parents are exactly those of the numba kernel.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+_DONE, _MARKING_LIMIT, _TOKEN_LIMIT = 0, 1, 2
+
+Array = npt.NDArray[Any]
+
+
+def _keys(cells: Array) -> Array:
+    """Each row of ``cells`` as one void scalar (bytewise comparable)."""
+    rows = np.ascontiguousarray(cells)
+    return rows.view(np.dtype((np.void, rows.shape[1] * rows.itemsize))).ravel()
+
+
+def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
+                 ) -> tuple[Any, ...]:
+    """Same contract as :func:`petri.verification.explore_numba.explore_rows`."""
+    m0 = net.row
+    levels = [m0[None, :].copy()]
+    parents: list[Array] = [np.array([-1], dtype=np.int64)]
+    parent_ts: list[Array] = [np.array([-1], dtype=np.int32)]
+    found: list[tuple[Array, Array, Array]] = []
+    known = _keys(levels[0])  # sorted keys of all numbered markings ...
+    known_id = np.zeros(1, dtype=np.int64)  # ... and their numbers
+    n, lo = 1, 0
+    status, at, stop_t = _DONE, -1, -1
+    for _ in range(max_markings):  # one BFS level per round; each level adds a marking
+        frontier = levels[-1].astype(np.int64)
+        if not len(frontier):
+            break
+        src, trans, succ = _successors(frontier, net, lo)
+        cut = len(src)
+        over = np.flatnonzero((succ > max_tokens).any(axis=1))
+        if over.size:
+            cut = int(over[0])
+            status, at, stop_t = _TOKEN_LIMIT, int(src[cut]), int(trans[cut])
+        src, trans = src[:cut], trans[:cut]
+        rows = succ[:cut].astype(m0.dtype)
+        keys = _keys(rows)
+        dst = _find(known, known_id, keys)
+        new = dst < 0
+        _, first, inverse = np.unique(keys[new], return_index=True, return_inverse=True)
+        order = np.argsort(first, kind="stable")  # number new markings by first discovery
+        rank = np.empty(len(order), dtype=np.int64)
+        rank[order] = np.arange(len(order))
+        dst[new] = n + rank[inverse.ravel()]
+        if n + len(order) > max_markings:
+            keep = np.flatnonzero(new)[first[order[max_markings - n]]]
+            status, at, stop_t = _MARKING_LIMIT, int(src[keep]), -1
+            src, trans, dst, rows, new = src[:keep], trans[:keep], dst[:keep], rows[:keep], \
+                new[:keep]
+            order = order[: max_markings - n]
+        found.append((src, dst, trans))
+        new_rows = np.flatnonzero(new)[first[order]]
+        levels.append(rows[new_rows])
+        parents.append(src[new_rows])
+        parent_ts.append(trans[new_rows].astype(np.int32))
+        known, known_id = _merge(known, known_id, keys[new_rows], n + np.arange(len(order)))
+        lo, n = n, n + len(order)
+        if status != _DONE:
+            break
+    cells = np.concatenate(levels)
+    src = np.concatenate([a[0] for a in found]).astype(np.int32) if found else _none()
+    dst = np.concatenate([a[1] for a in found]).astype(np.int32) if found else _none()
+    trans = np.concatenate([a[2] for a in found]).astype(np.int32) if found else _none()
+    degree = fired = None
+    if not arcs:  # the same counts the numba kernel keeps instead of the arcs
+        degree = np.bincount(src, minlength=len(cells)).astype(np.int32)
+        fired = np.bincount(trans, minlength=len(net.in_ptr) - 1).astype(np.int64)
+        src, dst, trans = _none(), _none(), _none()
+    return (cells, np.concatenate(parents), np.concatenate(parent_ts), src, dst, trans,
+            status, at, stop_t, degree, fired)
+
+
+def _none() -> Array:
+    return np.zeros(0, dtype=np.int32)
+
+
+def _ranges(starts: Array, counts: Array) -> Array:
+    """The concatenation of arange(s, s + c) for each (s, c)."""
+    total = int(counts.sum())
+    if not total:
+        return np.zeros(0, dtype=np.int64)
+    ends = np.cumsum(counts)
+    shift = np.repeat(starts - (ends - counts), counts)
+    return shift + np.arange(total, dtype=np.int64)
+
+
+def _successors(frontier: Array, net: Any, lo: int) -> tuple[Array, Array, Array]:
+    """All firings from the frontier rows (numbered from ``lo``), in (marking, t) order."""
+    rows, places = np.nonzero(frontier)
+    counts = net.rd_ptr[places + 1] - net.rd_ptr[places]
+    cand_row = np.repeat(rows, counts)
+    cand_t = net.rd_t[_ranges(net.rd_ptr[places], counts)]
+    # every candidate has an input (its first one is marked): check all of them
+    n_in = net.in_ptr[cand_t + 1] - net.in_ptr[cand_t]
+    arcs = _ranges(net.in_ptr[cand_t], n_in)
+    ok = frontier[np.repeat(cand_row, n_in), net.in_place[arcs]] >= net.in_w[arcs]
+    if len(cand_t):
+        enabled = np.logical_and.reduceat(ok, np.cumsum(n_in) - n_in)
+        cand_row, cand_t = cand_row[enabled], cand_t[enabled]
+    if len(net.sources):  # transitions without inputs fire everywhere
+        cand_row = np.concatenate([cand_row, np.repeat(np.arange(len(frontier)),
+                                                       len(net.sources))])
+        cand_t = np.concatenate([cand_t, np.tile(net.sources, len(frontier))])
+    order = np.lexsort((cand_t, cand_row))
+    cand_row, cand_t = cand_row[order], cand_t[order]
+    succ = frontier[cand_row]
+    n_eff = net.eff_ptr[cand_t + 1] - net.eff_ptr[cand_t]
+    eff = _ranges(net.eff_ptr[cand_t], n_eff)
+    succ[np.repeat(np.arange(len(cand_t)), n_eff), net.eff_place[eff]] += net.eff_delta[eff]
+    return cand_row + lo, cand_t.astype(np.int64), succ
+
+
+def _find(known: Array, known_id: Array, keys: Array) -> Array:
+    """Number of each key among the known markings, -1 where unknown."""
+    pos = np.searchsorted(known, keys)
+    pos_ok = np.minimum(pos, len(known) - 1)
+    found = known[pos_ok] == keys
+    return np.where(found, known_id[pos_ok], -1).astype(np.int64)
+
+
+def _merge(known: Array, known_id: Array, keys: Array, ids: Array) -> tuple[Array, Array]:
+    all_keys = np.concatenate([known, keys])
+    all_ids = np.concatenate([known_id, ids])
+    order = np.argsort(all_keys, kind="stable")
+    return all_keys[order], all_ids[order]

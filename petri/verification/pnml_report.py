@@ -1,0 +1,174 @@
+"""The state-space report of a P/T net: how many markings and arcs, bounds, deadlocks, dead
+transitions, 1-safety. It picks the explicit search when the state space fits and the symbolic
+(BDD) one otherwise.
+
+Command line (``app/pnml_report.py``)::
+
+    python -m app.pnml_report MODEL.pnml|MODEL.tgz [--json] [--method auto|explicit|symbolic]
+
+A ``.tgz`` is a Model Checking Contest archive; its ``*/model.pnml`` is read.
+"""
+
+from __future__ import annotations
+
+import sys
+import tarfile
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from petri.verification import reachability as rg
+from petri.verification import symbolic
+from petri.net import Net
+from petri.formats.pnml import PnmlError, read_pnml
+
+# In "auto", a net that may be 1-safe is first explored explicitly up to EXPLICIT_PROBE
+# markings. If that does not finish, the symbolic search takes over for at most
+# SYMBOLIC_SECONDS; if it runs out of time, or the net turns out not to be 1-safe, the explicit
+# search goes on up to max_markings. (On the contest models, a 1-safe net with more markings
+# than the probe is decided faster symbolically; nets whose BDDs blow up, like BART-PT-002 or
+# TokenRing-PT-010, have small state spaces that the probe finishes.)
+EXPLICIT_PROBE = 500_000
+SYMBOLIC_SECONDS = 60.0
+
+Report = dict[str, Any]
+
+
+def analyse(net: Net, method: str = "auto", max_markings: int = 20_000_000,
+            max_tokens: int = 255, probe: int = EXPLICIT_PROBE,
+            symbolic_seconds: float = SYMBOLIC_SECONDS) -> Report:
+    """Answer the contest's state-space questions about ``net``.
+
+    Keys: net, places, transitions, markings, arcs, max_tokens, deadlock_reachable,
+    dead_transitions (names), one_safe, complete, method ("explicit"/"symbolic"), seconds,
+    and, when a limit stopped the search, stop_reason and unbounded_place. Answers that an
+    incomplete search cannot give are None.
+
+    ``method="symbolic"`` raises :class:`petri.verification.symbolic.NotOneSafe` for a net that is not
+    1-safe and :class:`petri.verification.symbolic.SymbolicLimit` after ``symbolic_seconds``.
+    """
+    if method not in ("auto", "explicit", "symbolic"):
+        raise ValueError(f"unknown method {method!r}")
+    start = time.perf_counter()
+    if method == "symbolic":
+        report = symbolic_report(net, symbolic.explore(net, time_limit=symbolic_seconds))
+    elif method == "explicit":
+        report = explicit_report(net, rg.explore(net, max_markings, max_tokens, arcs=False))
+    else:
+        report = _auto(net, max_markings, max_tokens, probe, symbolic_seconds)
+    report["seconds"] = round(time.perf_counter() - start, 3)
+    return report
+
+
+def _auto(net: Net, max_markings: int, max_tokens: int, probe: int,
+          symbolic_seconds: float) -> Report:
+    if symbolic.available() and symbolic.is_candidate(net) and probe < max_markings:
+        ss = rg.explore(net, max_markings=probe, max_tokens=max_tokens, arcs=False)
+        if ss.complete:
+            return explicit_report(net, ss)
+        if rg.max_tokens(ss) <= 1:
+            try:
+                return symbolic_report(net, symbolic.explore(net, time_limit=symbolic_seconds))
+            except (symbolic.NotOneSafe, symbolic.SymbolicLimit):
+                pass  # explicit after all
+    return explicit_report(net, rg.explore(net, max_markings, max_tokens, arcs=False))
+
+
+def _header(net: Net) -> Report:
+    return {"net": net.name, "places": len(net.places), "transitions": len(net.transitions)}
+
+
+def explicit_report(net: Net, ss: rg.StateSpace) -> Report:
+    report = _header(net)
+    dead = rg.deadlocks(ss)
+    bound = rg.max_tokens(ss)
+    report.update(
+        markings=ss.n_markings,
+        arcs=ss.n_arcs,
+        max_tokens=bound if ss.complete else None,
+        deadlock_reachable=bool(dead.size) if ss.complete else (True if dead.size else None),
+        dead_transitions=([net.transitions[t].name for t in rg.dead_transitions(net, ss)]
+                          if ss.complete else None),
+        one_safe=bound <= 1 if ss.complete else (False if bound > 1 else None),
+        complete=ss.complete,
+        method="explicit",
+    )
+    if not ss.complete:
+        report["stop_reason"] = ss.stop_reason
+        report["unbounded_place"] = (None if ss.unbounded_place is None
+                                     else net.places[ss.unbounded_place].name)
+        if ss.unbounded_place is not None:
+            report["one_safe"] = False
+    return report
+
+
+def symbolic_report(net: Net, result: Any) -> Report:
+    report = _header(net)
+    report.update(
+        markings=result.markings,
+        arcs=result.arcs,
+        max_tokens=result.max_tokens,
+        deadlock_reachable=result.deadlock_reachable,
+        dead_transitions=[net.transitions[t].name for t in result.dead_transitions],
+        one_safe=result.one_safe,
+        complete=True,
+        method="symbolic",
+        bdd_nodes=result.bdd_nodes,
+    )
+    return report
+
+
+def load_net(path: str | Path, workdir: str | Path | None = None) -> Net:
+    """Read a PNML file, or the ``model.pnml`` inside a contest ``.tgz`` archive."""
+    path = Path(path)
+    if path.suffix not in (".tgz", ".gz"):
+        return read_pnml(path)
+    if not path.exists():
+        raise PnmlError("no such file", str(path))
+    with tempfile.TemporaryDirectory(dir=workdir) as tmp, tarfile.open(path) as archive:
+        members = [m for m in archive.getmembers() if m.name.endswith("/model.pnml")]
+        if not members:
+            raise PnmlError("the archive holds no */model.pnml", str(path))
+        archive.extract(members[0], tmp, filter="data")
+        return read_pnml(Path(tmp) / members[0].name)
+
+
+def format_report(report: Report) -> str:
+    def show(value: Any) -> str:
+        if value is None:
+            return "unknown"
+        if isinstance(value, bool):
+            return "yes" if value else "no"
+        if isinstance(value, list):
+            return ", ".join(value) if value else "none"
+        return f"{value:,}" if isinstance(value, int) else str(value)
+
+    keys = ["net", "places", "transitions", "method", "complete", "markings", "arcs",
+            "max_tokens", "one_safe", "deadlock_reachable", "dead_transitions",
+            "stop_reason", "unbounded_place", "bdd_nodes", "seconds"]
+    width = max(len(k) for k in keys)
+    return "\n".join(f"{k.replace('_', ' '):<{width}}  {show(report[k])}"
+                     for k in keys if k in report)
+
+
+EXIT_OK, EXIT_INVALID = 0, 2  # as mclc's exit statuses
+
+
+def report_file(path: str, fmt: str = "text") -> tuple[int, Report]:
+    """``mclc FILE.pnml``: analyse one PNML file; print the text report when fmt is "text".
+
+    Returns (exit status, JSON report with "file" and "status": "analysed" or "invalid").
+    """
+    try:
+        net = load_net(path)
+    except PnmlError as exc:
+        print(exc, file=sys.stderr)
+        return EXIT_INVALID, {"file": path, "status": "invalid", "diagnostics": [
+            {"severity": "error", "message": exc.message, "hint": None, "code": "pnml",
+             "file": exc.path or path, "line": exc.line, "col": exc.col}]}
+    report = {"file": path, "status": "analysed", **analyse(net)}
+    if fmt == "text":
+        print(f"{path}:")
+        print(format_report(report))
+    return EXIT_OK, report

@@ -1,0 +1,282 @@
+"""The vehicle side of the Zenoh link: the simulated Ictineu stack served over Zenoh.
+
+    mcl vehicle --zenoh tcp/127.0.0.1:7447 [--name auv] [--speed 10] [--seed 1]
+                [--inject leak@600] [--player-timeout 3]
+
+(its command line: ``app/vehicle.py``; here :func:`serve` and :class:`VehicleServer`). It listens on the endpoint in peer mode
+(multicast scouting off, see :func:`aal.zenoh.zenoh_config`), declares the
+liveliness token ``mcl/<v>/alive/vehicle``, takes actions from ``mcl/<v>/aal/action``
+(validated; an invalid one is logged and dropped), publishes the stack's events on
+``mcl/<v>/aal/event``, its clock on ``mcl/<v>/telemetry/clock`` and telemetry (navigator
+estimate, wall tracker, behaviour states) on ``mcl/<v>/telemetry/{navigator,wall,behaviours}``.
+
+Time: the simulated clock starts when a player's liveliness token first appears (so that a
+mission starts from the stack's initial state, as in process), then runs at ``speed`` times
+wall time, one stack tick (``DT``) at a time, paced with ``time.monotonic``; actions that have
+arrived are applied between ticks. If the machine cannot keep up, the simulated clock falls
+behind wall time x speed (the player follows the published clock, not its own guess).
+
+Link health: when the player's token has been gone for ``player_timeout`` **wall** seconds
+(link health is about the real link, not the simulation's speed), the vehicle disables every
+active behaviour and enables Surface, its own safe action. A player that comes back re-arms it.
+
+Restarts: players announce themselves with ``mcl/<v>/alive/player/<run>``. The vehicle takes
+actions from the latest run only; an action of another run, or one whose ``seq`` is not above
+the last taken from its run, is stale and dropped (counted in telemetry ``stale``). When a new
+run appears the vehicle first switches every behaviour off, so nothing a previous mission
+enabled is left on. A restarted vehicle process starts with every behaviour off.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import queue
+import threading
+import time
+from collections.abc import Iterable
+from typing import Any
+
+import zenoh
+
+from aal.messages import ActionMessage, InvalidMessage
+from aal.zenoh import (
+    DEFAULT_ENDPOINT,
+    LEASE_MS,
+    close_session,
+    keys,
+    payload_text,
+    zenoh_config,
+)
+from aal.zenoh_security import Security
+from behaviours import capabilities
+from vehicle.control.stack import DT, IctineuStack, StackConfig
+
+log = logging.getLogger(__name__)
+
+NEW_RUN = ActionMessage(-1, 0.0, "", "", "disable", "", {})  # marker: a new player run began
+CLOCK_PERIOD = 0.02  # wall s between clock messages
+TELEMETRY_PERIOD = 0.2  # wall s between telemetry messages (5 Hz)
+MAX_SLEEP = 0.01  # wall s: the loop looks at stop, actions and the player at least this often
+
+
+class VehicleServer:
+    """One simulated vehicle on one Zenoh endpoint. :meth:`run` blocks until ``stop`` is set."""
+
+    def __init__(self, endpoint: str = DEFAULT_ENDPOINT, vehicle_name: str = "auv",
+                 speed: float = 10.0, seed: int = 1,
+                 faults: Iterable[tuple[str, float]] = (),
+                 stop: threading.Event | None = None, player_timeout: float = 3.0,
+                 wait_for_player: bool = True, lease_ms: int = LEASE_MS,
+                 ready: threading.Event | None = None, security: Security | None = None,
+                 scouting: bool = False):
+        if not speed > 0:
+            raise ValueError("speed must be positive")
+        self.endpoint = endpoint
+        self.name = vehicle_name
+        self.keys = keys(vehicle_name)
+        self.speed = float(speed)
+        self.stack = IctineuStack(StackConfig(seed=seed, faults=list(faults)))
+        self.declaration = capabilities.simulated(f"{vehicle_name} (mcl vehicle --zenoh "
+                                                  f"{endpoint})", list(self.stack.behaviours))
+        self.stop = stop or threading.Event()
+        self.player_timeout = player_timeout
+        self.wait_for_player = wait_for_player
+        self.lease_ms = lease_ms
+        self.security = security
+        self.scouting = scouting
+        self.ready = ready or threading.Event()
+        self._actions: queue.Queue[ActionMessage] = queue.Queue()
+        self._lock = threading.Lock()
+        self._player_present = threading.Event()
+        self._player_gone_at: float | None = None  # monotonic, while the player is away
+        self.failsafe = False  # the safe action has been taken (and not re-armed)
+        self._run = ""  # the player run whose actions are taken (its token's last part)
+        self._last_seq: dict[str, int] = {}  # per run: the last action seq taken
+        self.stale = 0  # actions of another run, or replayed, dropped
+        self.dropped = 0  # invalid actions dropped
+        self.actions = 0
+        self.events = 0
+
+    # -- Zenoh callbacks ----------------------------------------------------------------------
+    def _on_action(self, sample: zenoh.Sample) -> None:
+        try:
+            action = ActionMessage.from_json(payload_text(sample))
+        except InvalidMessage as exc:
+            with self._lock:
+                self.dropped += 1
+            log.warning("vehicle dropped an invalid action: %s", exc)
+            return
+        with self._lock:
+            stale = ((action.run and action.run != self._run)
+                     or action.seq <= self._last_seq.get(action.run, -1))
+            if stale:
+                self.stale += 1
+            else:
+                self._last_seq[action.run] = action.seq
+        if stale:
+            log.warning("vehicle dropped a stale action (run %s, seq %d; current run %s): "
+                        "%s %s", action.run or "-", action.seq, self._run or "-", action.kind,
+                        action.behaviour)
+            return
+        self._actions.put(action)
+
+    def _on_player(self, sample: zenoh.Sample) -> None:
+        run = str(sample.key_expr).rpartition("/")[2]
+        with self._lock:
+            if sample.kind == zenoh.SampleKind.PUT:
+                if run != self._run:
+                    if self._run:
+                        log.warning("a new player run %s replaces %s", run, self._run)
+                    self._run = run
+                    self._actions.put(NEW_RUN)  # applied in the loop, before its actions
+                self._player_gone_at = None
+                self._player_present.set()
+                if self.failsafe:
+                    log.warning("player is back: the safe action is re-armed")
+                self.failsafe = False
+            elif run == self._run:
+                self._player_present.clear()
+                self._player_gone_at = time.monotonic()
+                log.warning("player's token went away")
+
+    def _on_capabilities(self, query: zenoh.Query) -> None:
+        """What this vehicle can do: the Ictineu stack's declaration (the task library's)."""
+        d = self.declaration
+        query.reply(self.keys["capabilities"], json.dumps(
+            {"vehicle": d.vehicle, "source": d.source, "text": d.text}))
+
+    # -- the loop -------------------------------------------------------------------------------
+    def run(self) -> None:
+        k = self.keys
+        session = zenoh.open(zenoh_config(self.endpoint, listen=True, lease_ms=self.lease_ms,
+                                          security=self.security, role="vehicle",
+                                          scouting=self.scouting))
+        try:
+            pub = {
+                "event": session.declare_publisher(
+                    k["event"], congestion_control=zenoh.CongestionControl.BLOCK,
+                    priority=zenoh.Priority.INTERACTIVE_HIGH, express=True),
+                "clock": session.declare_publisher(
+                    k["clock"], congestion_control=zenoh.CongestionControl.DROP, express=True),
+            }
+            for stream in ("navigator", "wall", "behaviours"):
+                pub[stream] = session.declare_publisher(
+                    f"{k['telemetry']}/{stream}",
+                    congestion_control=zenoh.CongestionControl.DROP,
+                    priority=zenoh.Priority.DATA_LOW)
+            entities: list[Any] = [
+                session.declare_subscriber(k["action"], self._on_action),
+                session.liveliness().declare_subscriber(f"{k['alive_player']}/*",
+                                                        self._on_player, history=True),
+                session.declare_queryable(k["capabilities"], self._on_capabilities),
+                session.liveliness().declare_token(k["alive_vehicle"]),  # last: all is ready
+            ]
+            self.ready.set()
+            log.info("vehicle %s ready on %s", self.name, self.endpoint)
+            self._loop(pub)
+            for e in reversed(entities):
+                e.undeclare()
+        finally:
+            close_session(session)
+
+    def _loop(self, pub: dict[str, Any]) -> None:
+        stack = self.stack
+        next_clock = next_telemetry = 0.0
+        while self.wait_for_player and not self._player_present.is_set():
+            # paused at t = 0 until a player comes: say so (the player's clock stands still)
+            if self.stop.is_set():
+                return
+            self._apply_actions()
+            self._publish_clock(pub, False)
+            if time.monotonic() >= next_telemetry:
+                self._publish_telemetry(pub)
+                next_telemetry = time.monotonic() + TELEMETRY_PERIOD
+            self._player_present.wait(CLOCK_PERIOD)
+        wall0, t0 = time.monotonic(), stack.t
+        while not self.stop.is_set():
+            self._apply_actions()
+            self._check_player()
+            now = time.monotonic()
+            if stack.t + DT <= t0 + (now - wall0) * self.speed:  # a tick is due
+                for event in stack.due(stack.t + DT):
+                    pub["event"].put(event.to_json())
+                    self.events += 1
+            else:
+                due_at = wall0 + (stack.t + DT - t0) / self.speed
+                time.sleep(min(MAX_SLEEP, max(0.0, due_at - now)))
+            now = time.monotonic()
+            if now >= next_clock:
+                self._publish_clock(pub, True)
+                next_clock = now + CLOCK_PERIOD
+            if now >= next_telemetry:
+                self._publish_telemetry(pub)
+                next_telemetry = now + TELEMETRY_PERIOD
+
+    def _apply_actions(self) -> None:
+        while True:
+            try:
+                action = self._actions.get_nowait()
+            except queue.Empty:
+                return
+            if action is NEW_RUN:
+                self.switch_off("a new player run")
+                continue
+            self.actions += 1
+            self.stack.on_action(action, self.stack.t)
+
+    def _check_player(self) -> None:
+        with self._lock:
+            gone = self._player_gone_at
+            due = (gone is not None and not self.failsafe
+                   and time.monotonic() - gone >= self.player_timeout)
+            if due:
+                self.failsafe = True
+        if due:
+            self.safe_action()
+
+    def switch_off(self, why: str) -> list[str]:
+        """Disable every active behaviour; returns their names."""
+        stack, t = self.stack, self.stack.t
+        active = [b.name for b in stack.behaviours.values() if b.active]
+        if active:
+            log.warning("%s: disabling %s", why, ", ".join(active))
+        for i, name in enumerate(active):
+            stack.on_action(ActionMessage(i, t, "vehicle", why, "disable", name, {}), t)
+        return active
+
+    def safe_action(self) -> None:
+        """Disable every active behaviour, then enable Surface."""
+        self.switch_off(f"player lost for {self.player_timeout:g} s")
+        log.warning("surfacing (the player is lost)")
+        t = self.stack.t
+        self.stack.on_action(ActionMessage(0, t, "vehicle", "failsafe", "enable", "Surface",
+                                           {}), t)
+
+    def _publish_clock(self, pub: dict[str, Any], running: bool) -> None:
+        pub["clock"].put(json.dumps({"t": self.stack.t, "speed": self.speed,
+                                     "running": running}))
+
+    def _publish_telemetry(self, pub: dict[str, Any]) -> None:
+        p = self.stack.perception()
+        t = self.stack.t
+        pub["navigator"].put(json.dumps({"t": t, "x": p.x, "y": p.y, "z": p.z, "yaw": p.psi,
+                                         "u": p.u, "v": p.v, "w": p.w, "r": p.r}))
+        pub["wall"].put(json.dumps({"t": t, "detected": p.wall_distance is not None,
+                                    "distance": p.wall_distance, "heading": p.wall_heading}))
+        pub["behaviours"].put(json.dumps({
+            "t": t, "active": sorted(b.name for b in self.stack.behaviours.values() if b.active),
+            "failsafe": self.failsafe, "player": self._player_present.is_set(),
+            "run": self._run, "actions": self.actions, "events": self.events,
+            "dropped": self.dropped, "stale": self.stale}))
+
+
+def serve(endpoint: str = DEFAULT_ENDPOINT, vehicle_name: str = "auv", speed: float = 10.0,
+          seed: int = 1, faults: Iterable[tuple[str, float]] = (),
+          stop: threading.Event | None = None, player_timeout: float = 3.0,
+          **options: Any) -> VehicleServer:
+    """Serve a simulated vehicle until ``stop`` is set (blocks); returns the server."""
+    server = VehicleServer(endpoint, vehicle_name, speed, seed, faults, stop, player_timeout,
+                           **options)
+    server.run()
+    return server
