@@ -8,7 +8,7 @@ encoding (every state of the latch at every call and cleanup), built here only.
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from mcl import ast, compiler, printer, tasklib
@@ -76,7 +76,10 @@ def test_every_reachable_latch_state_has_its_transitions(mission: ast.Mission) -
     names = {t.name for t in new.transitions}
     assert names <= {t.name for t in full.transitions}
     ss_full = rg.explore(full, max_markings=300_000)
-    assert ss_full.complete, text
+    # the oracle is the full encoding's complete graph: a mission whose full encoding (every
+    # latch state everywhere) exceeds the bound cannot be judged, so it is not an example
+    # (four generic tasks side by side beside a latch can exceed it)
+    assume(ss_full.complete)
     # every transition that fires in the full encoding exists in the new one ...
     fired = {full.transitions[t].name for t in np.unique(ss_full.transition)}
     missing = sorted(fired - names)
