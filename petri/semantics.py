@@ -4,19 +4,25 @@ mission status and the verifier's model, so that what is proved is what runs.
 - *Roles* come from the places' typed roles (set by the templates), never from names.
 - *Enabled*, *fire*: the P/T firing rule.
 - *Kinds of transition*: immediate (no event, no timer), timed (``timer`` seconds, or a
-  mission parameter's name), event-driven (``event``); ``Mission.abort`` is the external stop.
+  mission parameter's name), event-driven (``event``); ``Mission.abort`` is the external stop
+  (:data:`MISSION_ABORT`, defined here only: the mission template and the analyses import it).
+- *Timers*: a timed transition's clock starts when it becomes enabled, keeps running while it
+  stays enabled, and is dropped when a firing disables it (:meth:`Semantics.rearm`); it falls
+  due :meth:`Semantics.seconds` after it started.
 - *Priority*: immediate transitions fire before any timer or event; among them, those that
   touch an ``abort`` place first (a block being stopped starts nothing new in that instant),
   then by index.
 - *Behaviours*: a behaviour is on while some marked place holds it (a running task's place, a
   latched behaviour's "on" place). A ``disable`` is sent only when its firing leaves no holder:
   a watcher held by several tasks stays on until the last lets go.
-- *End*: the mission has ended when its ``end-ok`` or ``end-fail`` place is marked.
+- *End*: the mission has ended when its ``end-ok`` or ``end-fail`` place is marked. A
+  behaviour still on then is switched off by the player (the *cleanup*, the last line of
+  defence), which the run log records as a ``cleanup`` record naming them.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, MutableSequence, Sequence
 from typing import Any
 
 from petri.net import ABORT, END_FAIL, END_OK, LATCH_OFF, LATCH_ON, RUN, Net
@@ -33,6 +39,8 @@ class Semantics:
     def __init__(self, net: Net):
         self.net = net
         places, transitions = net.places, net.transitions
+        self.inputs = [t.inputs for t in transitions]  # the arcs, read at every firing
+        self.outputs = [t.outputs for t in transitions]
         aborts = set(net.places_with(ABORT))
         self.immediate = [t.immediate for t in transitions]
         # the order in which enabled immediate transitions fire: aborts first, then by index
@@ -48,6 +56,8 @@ class Semantics:
         for i, t in enumerate(transitions):
             for p, _ in t.inputs:
                 self.readers[p].append(i)
+        self.timers_reading = [[r for r in rs if transitions[r].timer is not None]
+                               for rs in self.readers]
         self.ends = {p: "ok" for p in net.places_with(END_OK)} | {
             p: "fail" for p in net.places_with(END_FAIL)}
         self.latch_states = net.places_with(LATCH_OFF, LATCH_ON)
@@ -59,13 +69,15 @@ class Semantics:
 
     # -- the firing rule ---------------------------------------------------------------------
     def enabled(self, marking: Marking, t: int) -> bool:
-        return all(marking[p] >= w for p, w in self.net.transitions[t].inputs)
+        """Every input place of ``t`` holds at least its arc's weight."""
+        return all(marking[p] >= w for p, w in self.inputs[t])
 
-    def fire(self, marking: list[int], t: int) -> None:
-        tr = self.net.transitions[t]
-        for p, w in tr.inputs:
+    def fire(self, marking: MutableSequence[int], t: int) -> None:
+        """Fire ``t`` (enabled) in place: take its inputs' weights, add its outputs'. A
+        ``bytearray`` marking raises ValueError where a place would exceed 255 tokens."""
+        for p, w in self.inputs[t]:
             marking[p] -= w
-        for p, w in tr.outputs:
+        for p, w in self.outputs[t]:
             marking[p] += w
 
     def initial(self) -> list[int]:
@@ -75,18 +87,44 @@ class Semantics:
         return marking
 
     # -- time -------------------------------------------------------------------------------
-    def seconds(self, t: int, params: dict[str, Any]) -> float:
-        """A timed transition's delay; a parameter's value must be a finite number >= 0."""
+    def delay(self, t: int, params: dict[str, Any]) -> float | None:
+        """A timed transition's delay in seconds; None if its timer names a mission parameter
+        that has no value (a number) in ``params``. ValueError if the delay is not a finite
+        number >= 0 (the player refuses to run such a timer)."""
         timer = self.net.transitions[t].timer
         if isinstance(timer, str):
             value = params.get(timer)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ValueError(f"timer parameter {timer!r} has no value")
+                return None
             timer = float(value)
-        assert timer is not None
+        assert timer is not None, f"{self.net.transitions[t].name} has no timer"
         if not 0.0 <= float(timer) < float("inf"):
             raise ValueError(f"timer of {timer} s: a duration must be finite and >= 0")
         return float(timer)
+
+    def seconds(self, t: int, params: dict[str, Any]) -> float:
+        """A timed transition's delay; a parameter's value must be a finite number >= 0."""
+        seconds = self.delay(t, params)
+        if seconds is None:
+            raise ValueError(f"timer parameter {self.net.transitions[t].timer!r} has no value")
+        return seconds
+
+    def rearm(self, marking: Marking, since: dict[int, float], now: float,
+              fired: int | None = None) -> None:
+        """Keep the timers' clocks, ``since`` (timed transition -> the time it became
+        enabled), up to date at ``now``: a timer enabled keeps its start, or starts now; one
+        not enabled is dropped. ``fired``: only the timers that read a place the firing of
+        that transition touched (the others' enabling has not changed)."""
+        if fired is None:
+            timers: Iterable[int] = self.timed
+        else:
+            timers = {r for p, _ in self.inputs[fired] + self.outputs[fired]
+                      for r in self.timers_reading[p]}
+        for t in timers:
+            if self.enabled(marking, t):
+                since.setdefault(t, now)
+            else:
+                since.pop(t, None)
 
     def zero_time(self, t: int, params: dict[str, Any] | None = None) -> bool:
         """Fires without time passing: immediate, or a timer of 0 s (a parameter without a

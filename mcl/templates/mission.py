@@ -16,11 +16,12 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from petri.net import BEGIN, END_FAIL, END_OK
+from petri.semantics import MISSION_ABORT as ABORT_EVENT  # the external stop, defined there
 
 from mcl import ast
 from mcl.templates.common import Context, Interface
 
-ABORT_EVENT = "Mission.abort"
+__all__ = ["ABORT_EVENT", "build"]
 
 
 def build(ctx: Context, mission: ast.Mission,

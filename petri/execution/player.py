@@ -8,7 +8,7 @@ timers. The rules, in order of precedence:
    ``abort`` place), then the others, lowest index first. Aborts first means a block that is
    being stopped does not start anything new in the same instant. A firing sends its actions
    in the same step, so a task's stop actions always go out before its block reports back
-   (MCL.md's abort rule).
+   (docs/SEMANTICS.md §2).
 2. A *timed* transition fires when it has been enabled without interruption for its time, at
    that time: timers that fall due before an event are fired before the event is handled.
 3. An *event* fires every transition enabled and waiting for it, lowest index first, each at
@@ -17,33 +17,87 @@ timers. The rules, in order of precedence:
    mission (the ``Mission.abort`` transition).
 
 Time comes from outside (``now`` arguments): simulated time and wall time run the same code.
-The same events at the same times give the same firings. Everything the player does is
-reported to its observers as records (see :class:`Record`).
+The same events at the same times give the same firings. The rules themselves (enabled, fire,
+priority, timers, holders) are :class:`petri.semantics.Semantics`'s; the player applies them.
+
+What leaves the player:
+
+- *Orders* for the vehicle go into its :attr:`Player.outbox`, in the order they are decided;
+  whoever runs the player (petri/execution/runner.py) drains it and sends them.
+- *Records* of everything it does go to its observers (see :class:`Record`), which only
+  observe. A firing is one step: its marking, its orders in the outbox and its timers are
+  complete before any observer hears of it, so an observer reads a settled player. An
+  observer that raises (a run log on a full disk) stops neither the other observers nor the
+  player: the call under way (``start``, ``settle``, ``handle_event``, ``abort``, ...) runs to
+  its end, and then the first such exception propagates to the caller, whose safe exit can
+  abort the run from a player that is whole.
 """
 
 from __future__ import annotations
 
+import functools
 import heapq
-from collections.abc import Callable
+from collections import deque
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Concatenate, NamedTuple, ParamSpec, TypeVar
 
 from petri.net import Action, Net, resolve
 from petri.semantics import LINK_LOST, MISSION_ABORT, Semantics, block_of
 
 MAX_IMMEDIATE_FIRINGS = 1_000_000  # per step: a bound on any loop, never reached by a sound net
 
-__all__ = ["LINK_LOST", "MISSION_ABORT", "Player", "Record"]
+__all__ = ["LINK_LOST", "MISSION_ABORT", "Order", "Player", "Record"]
+
+
+P = ParamSpec("P")
+R = TypeVar("R")
+
+
+def whole(method: Callable[Concatenate[Player, P], R]) -> Callable[Concatenate[Player, P], R]:
+    """A call of the player that runs to its end whatever its observers do: the first
+    exception an observer raised during it propagates once it is over (module doc)."""
+    def call(player: Player, /, *args: P.args, **kwargs: P.kwargs) -> R:
+        player._calls += 1
+        try:
+            result = method(player, *args, **kwargs)
+        except BaseException:
+            player._calls -= 1
+            if player._calls == 0:
+                player._failure = None  # the call's own error is the one to report
+            raise
+        player._calls -= 1
+        if player._calls == 0 and player._failure is not None:
+            failure, player._failure = player._failure, None
+            raise failure
+        return result
+    functools.update_wrapper(call, method)  # its name and docstring
+    return call
 
 
 @dataclass(frozen=True)
 class Record:
     """One thing that happened: kind is "fire", "action", "event", "ignored", "status",
-    "note". ``data`` holds the details (JSON-ready)."""
+    "note" or "cleanup" (the behaviours the player itself switches off because the net left
+    them on, before the disables it sends for them). ``data`` holds the details
+    (JSON-ready)."""
 
     t: float
     kind: str
     data: dict[str, Any]
+
+
+class Order(NamedTuple):
+    """An action the player has decided to send to the vehicle, as it waits in the outbox:
+    ``kind`` enable, disable or configure; ``params`` resolved; ``task`` the task call that
+    sends it (``MISSION`` for the player's own switch-off). A tuple: made at every action."""
+
+    t: float
+    task: str
+    kind: str
+    behaviour: str
+    params: dict[str, Any]
 
 
 @dataclass
@@ -56,6 +110,8 @@ class Player:
     behaviours_on: dict[str, str] = field(init=False, default_factory=dict)  # -> task
     status: str = field(init=False, default="ready")  # ready | running | ok | fail
     fired: int = field(init=False, default=0)
+    # the orders not yet taken by whoever runs the player (the runner drains it)
+    outbox: deque[Order] = field(init=False, default_factory=deque)
 
     def __post_init__(self) -> None:
         self.rules = Semantics(self.net)
@@ -66,8 +122,13 @@ class Player:
         self._queued = {i for _, i in self._candidates}
         self._clock = float("-inf")  # the time of the last firing: never goes back
         self._instant: dict[int, float] = {}  # transition -> the instant it last fired at
+        self._untold: deque[Record] = deque()  # records not yet given to the observers
+        self._steps = 0  # > 0 inside a step (a firing, the end): records wait for its end
+        self._calls = 0  # > 0 inside a call of the player: an observer's error waits for it
+        self._failure: Exception | None = None  # the first observer error of the call
 
     # -- the three ways a transition fires -------------------------------------------------
+    @whole
     def start(self, now: float) -> None:
         self.status = "running"
         self._clock = now
@@ -78,6 +139,7 @@ class Player:
     def enabled(self, t: int) -> bool:
         return self.rules.enabled(self.marking, t)
 
+    @whole
     def settle(self, now: float, before: bool = False) -> None:
         """Fire immediate transitions and the timers due by ``now`` (``before``: due strictly
         before it), in time order, until nothing more can fire. A transition that would fire
@@ -130,6 +192,7 @@ class Player:
                 best = (when, t)
         return None if best is None else (best[1], best[0])
 
+    @whole
     def handle_event(self, event: str, now: float, data: dict[str, Any] | None = None) -> int:
         """Fire what waits for ``event``; returns how many transitions fired.
 
@@ -169,6 +232,7 @@ class Player:
     def _waiting_for(self, event: str) -> list[int]:
         return [t for t in self.rules.waiting.get(event, []) if self.enabled(t)]
 
+    @whole
     def abort(self, now: float, reason: str) -> None:
         """Stop the mission from outside (an operator, a limit, a signal, a lost link): the
         ``Mission.abort`` transition fires, the blocks stop their tasks and switch their
@@ -186,10 +250,16 @@ class Player:
         self.status = "running"  # so that _check_end reports (and switches off what is on)
         self._check_end(self._clock)
         if not self.finished:  # the net could not end (a bug, or not started): end it here
-            for b in sorted(self.behaviours_on):
-                self._send(Action("disable", b), "MISSION", self._clock, last_resort=True)
-            self.status = "fail"
-            self._emit(self._clock, "status", {"status": "fail"})
+            with self._step():
+                self._switch_off(self._clock)
+                self.status = "fail"
+                self._emit(self._clock, "status", {"status": "fail"})
+
+    @whole
+    def note_ignored(self, event: str, now: float, reason: str) -> None:
+        """Record that an event was not handled (a runner dropping a duplicate, say): it
+        fires nothing."""
+        self._emit(now, "ignored", {"event": event, "reason": reason})
 
     def _settle_immediate(self) -> None:
         for _ in range(MAX_IMMEDIATE_FIRINGS):
@@ -198,6 +268,7 @@ class Player:
                 return
             self._fire(t, self._clock, "immediate")
 
+    @whole
     def fire(self, t: int, now: float, cause: str = "replay") -> None:
         """Fire one given transition (it must be enabled): for replaying a firing sequence,
         such as a verifier's counterexample, step by step."""
@@ -215,39 +286,33 @@ class Player:
         return self.rules.seconds(t, self.params)
 
     def _arm_timers(self, now: float) -> None:
-        for t in self.rules.timed:
-            if self.enabled(t):
-                self.enabled_since.setdefault(t, now)
-            else:
-                self.enabled_since.pop(t, None)
+        self.rules.rearm(self.marking, self.enabled_since, now)
 
     # -- firing ---------------------------------------------------------------------------
     def _fire(self, t: int, now: float, cause: str) -> None:
+        """One step: the marking, the orders in the outbox, the candidates and the timers,
+        and only then the records to the observers."""
         tr = self.net.transitions[t]
-        self.rules.fire(self.marking, t)
-        self.fired += 1
-        task = block_of(tr.name)
-        self._emit(now, "fire", {"transition": tr.name, "index": t, "cause": cause,
-                                 "label": tr.label, "construct": tr.origin.text if tr.origin
-                                 else "", "line": tr.origin.line if tr.origin else None})
-        for action in tr.actions:
-            self._send(action, task, now)
         rules = self.rules
-        for p, _ in tr.outputs:
-            for r in rules.readers[p]:
-                if rules.immediate[r] and r not in self._queued:
-                    heapq.heappush(self._candidates, rules.rank[r])
-                    self._queued.add(r)
-        self._rearm_after(tr.inputs + tr.outputs, now)
-
-    def _rearm_after(self, arcs: tuple[tuple[int, int], ...], now: float) -> None:
-        touched = {t for p, _ in arcs for t in self.rules.readers[p]
-                   if self.net.transitions[t].timer is not None}
-        for t in touched:
-            if self.enabled(t):
-                self.enabled_since.setdefault(t, now)
-            else:
-                self.enabled_since.pop(t, None)
+        self._steps += 1  # as self._step(), written out: this is the player's hot path
+        try:
+            rules.fire(self.marking, t)
+            self.fired += 1
+            task = block_of(tr.name)
+            self._emit(now, "fire", {"transition": tr.name, "index": t, "cause": cause,
+                                     "label": tr.label, "construct": tr.origin.text
+                                     if tr.origin else "",
+                                     "line": tr.origin.line if tr.origin else None})
+            for action in tr.actions:
+                self._send(action, task, now)
+            for p, _ in tr.outputs:
+                for r in rules.readers[p]:
+                    if rules.immediate[r] and r not in self._queued:
+                        heapq.heappush(self._candidates, rules.rank[r])
+                        self._queued.add(r)
+            rules.rearm(self.marking, self.enabled_since, now, fired=t)
+        finally:
+            self._end_step()
 
     def _send(self, action: Action, task: str, now: float, last_resort: bool = False) -> None:
         """Send an action. A ``disable`` that leaves another holder of the behaviour (a
@@ -264,6 +329,7 @@ class Player:
             self.behaviours_on.pop(action.behaviour, None)
         elif action.kind == "enable":
             self.behaviours_on[action.behaviour] = task
+        self.outbox.append(Order(now, task, action.kind, action.behaviour, params))
         self._emit(now, "action", {"action": action.kind, "behaviour": action.behaviour,
                                    "params": params, "task": task})
 
@@ -278,19 +344,59 @@ class Player:
         status = self.rules.end_status(self.marking)
         if status is None:
             return
-        self.status = status
-        if self.behaviours_on:  # the last line of defence (MCL.md)
-            left = sorted(self.behaviours_on)
-            self._emit(now, "note", {"note": "switching off behaviours left on at the "
-                                             f"end: {', '.join(left)}"})
-            for b in left:
-                self._send(Action("disable", b), "MISSION", now, last_resort=True)
-        self._emit(now, "status", {"status": status})
+        with self._step():  # the end: its status, the cleanup and its orders
+            self.status = status
+            if self.behaviours_on:  # the last line of defence (docs/SEMANTICS.md)
+                left = ", ".join(sorted(self.behaviours_on))
+                self._emit(now, "note", {"note": f"switching off behaviours left on at the "
+                                                 f"end: {left}"})
+                self._switch_off(now)
+            self._emit(now, "status", {"status": status})
 
+    def _switch_off(self, now: float) -> None:
+        """The cleanup: a ``cleanup`` record naming what is still on, then a disable of each
+        (sent whatever holds it: the mission is over)."""
+        left = sorted(self.behaviours_on)
+        if not left:
+            return
+        self._emit(now, "cleanup", {"behaviours": left})
+        for b in left:
+            self._send(Action("disable", b), "MISSION", now, last_resort=True)
+
+    # -- telling the observers --------------------------------------------------------------
     def _emit(self, now: float, kind: str, data: dict[str, Any]) -> None:
-        record = Record(now, kind, data)
-        for observe in self.observers:
-            observe(record)
+        self._untold.append(Record(now, kind, data))
+        if not self._steps:
+            self._tell()
+
+    @contextmanager
+    def _step(self) -> Iterator[None]:
+        """A step of the player: the records emitted inside wait for its end."""
+        self._steps += 1
+        try:
+            yield
+        finally:
+            self._end_step()
+
+    def _end_step(self) -> None:
+        self._steps -= 1
+        if not self._steps:
+            self._tell()
+
+    def _tell(self) -> None:
+        """Give every waiting record to every observer, in order; keep the first exception
+        an observer raises for the end of the call (:func:`whole`)."""
+        while self._untold:
+            record = self._untold.popleft()
+            for observe in self.observers:
+                try:
+                    observe(record)
+                except Exception as exc:  # an observer's failure must not cut the player
+                    if self._failure is None:
+                        self._failure = exc
+        if not self._calls and self._failure is not None:  # outside a call: at once
+            failure, self._failure = self._failure, None
+            raise failure
 
     # -- for observers ----------------------------------------------------------------------
     @property

@@ -3,7 +3,14 @@
 Every firing must be of a transition enabled in the marking the previous firings led to; a
 firing caused by an event must wait for that event; a firing caused by a timer must come after
 its time; the actions after a firing must be exactly those the transition sends; the status
-records must agree with the marking. The first record that does not is named by its line.
+records must agree with the marking. The rules (enabled, fire, the timers' clocks, which
+disables a holder keeps back) are :class:`petri.semantics.Semantics`'s, as the player's.
+
+The player's own switch-off at the end (the last line of defence) is read from its
+``cleanup`` record, which names the behaviours still on; only a plain disable of each, sent by
+``MISSION``, may follow it. A log written before the cleanup was a record of its own (it said
+so only in a note's text) is refused at its first such disable, with that reason.
+The first record that does not conform is named by its line.
 """
 
 from __future__ import annotations
@@ -13,7 +20,7 @@ from typing import Any
 
 from petri.net import Net, resolve
 from petri.execution.runlog import net_digest
-from petri.semantics import MISSION_ABORT, Semantics
+from petri.semantics import LINK_LOST, Semantics
 
 
 @dataclass
@@ -34,6 +41,7 @@ FIELDS: dict[str, dict[str, type | tuple[type, ...]]] = {
     "ignored": {"event": str},
     "status": {"status": str},
     "note": {"note": str},
+    "cleanup": {"behaviours": list},
 }
 
 
@@ -48,6 +56,9 @@ def malformed(records: list[dict[str, Any]]) -> Conformance | None:
                 return Conformance(False, len(records), 0, r.get("_line"),
                                    f"a {r['kind']!r} record needs {name!r} ({what}), "
                                    f"not {value!r}")
+        if r["kind"] == "cleanup" and not all(isinstance(b, str) for b in r["behaviours"]):
+            return Conformance(False, len(records), 0, r.get("_line"),
+                               "a 'cleanup' record names behaviours (a list of names)")
     return None
 
 
@@ -99,33 +110,31 @@ def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Co
     def enabled(t: int) -> bool:
         return rules.enabled(marking, t)
 
-    def rearm(now: float) -> None:
-        for t in rules.timed:
-            if enabled(t):
-                since.setdefault(t, now)
-            else:
-                since.pop(t, None)
-
     def bad(r: dict[str, Any], reason: str) -> Conformance:
         return Conformance(False, len(records), firings, r["_line"], reason)
 
-    cleanup = False
+    cleanup: set[str] | None = None  # what the player's cleanup has still to switch off
     on: set[str] = set()  # behaviours the logged actions have switched on
     for r in records[1:]:
         kind, now = r["kind"], float(r.get("t", 0.0))
         if kind == "status" and r.get("status") == "running":
-            rearm(now)
+            rules.rearm(marking, since, now)
             continue
         if kind == "action":
             expected = pending.pop(0) if pending else None
             got = {k: r.get(k) for k in ("action", "behaviour", "params")}
-            if expected is None and cleanup:  # the player's last line of defence at the end
+            if expected is None and cleanup is not None:  # the last line of defence
                 if got != {"action": "disable", "behaviour": got["behaviour"], "params": {}} \
-                        or got["behaviour"] not in on or r.get("task") != "MISSION":
+                        or got["behaviour"] not in cleanup or r.get("task") != "MISSION":
                     return bad(r, f"{got['action']} {got['behaviour']} at the end: only a "
-                                  "plain disable of a behaviour still on may follow")
-                on.discard(got["behaviour"])
+                                  "plain disable of a behaviour the cleanup names may follow")
+                cleanup.discard(str(got["behaviour"]))
+                on.discard(str(got["behaviour"]))
                 continue
+            if expected is None and r.get("task") == "MISSION":
+                return bad(r, f"{got['action']} {got['behaviour']} by MISSION with no "
+                              "'cleanup' record before it (a log from before cleanup "
+                              "records cannot be replayed)")
             if expected != got:
                 return bad(r, f"action {got['action']} {got['behaviour']} is not what the last "
                               f"firing sends (expected {expected})")
@@ -146,7 +155,7 @@ def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Co
             if not enabled(t):
                 return bad(r, f"{tr.name} is not enabled here")
             cause = r.get("cause")
-            stop = tr.event == MISSION_ABORT and cause in ("Link.lost", "abort")
+            stop = t in rules.stops and cause in (LINK_LOST, "abort")
             if tr.event is not None and cause != tr.event and not stop:
                 return bad(r, f"{tr.name} waits for {tr.event}, but the log says {cause}")
             if tr.timer is not None:
@@ -166,11 +175,17 @@ def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Co
                         "params": {k: resolve(v, params) for k, v in a.params}}
                        for a in tr.actions
                        if a.kind != "disable" or not rules.held(marking, a.behaviour)]
-            rearm(now)
-        elif kind == "note" and "switching off" in str(r.get("note", "")):
-            cleanup = True
+            rules.rearm(marking, since, now, fired=t)
+        elif kind == "cleanup":
+            named = set(r["behaviours"])
+            if cleanup is not None:
+                return bad(r, "a second cleanup")
+            if named != on:
+                return bad(r, f"a cleanup of {sorted(named)}, but the behaviours on are "
+                              f"{sorted(on)}")
+            cleanup = named
         elif kind == "status":
-            if cleanup and on:
+            if on:  # the player switches off whatever is left before it says so
                 return bad(r, f"the mission ends with {', '.join(sorted(on))} still on")
             status = r.get("status")
             marked = {s for p, s in ends.items() if marking[p] > 0}

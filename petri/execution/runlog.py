@@ -5,6 +5,24 @@ written. The first record is a header that says which mission, which net (a dige
 compiled net) and which parameters were run, so that ``mcl replay`` can check the log against
 the same net; the last record says how and why the run ended (``"kind": "end"``).
 
+Between them, one record per :class:`~petri.execution.player.Record` of the player, with its
+mission time ``t``, its ``kind`` and its fields:
+
+==========  ===================================================================================
+kind        fields
+==========  ===================================================================================
+status      ``status``: running, ok or fail
+fire        ``transition``, ``index``, ``cause`` (immediate, timer, abort, replay, or the event),
+            ``label``, ``construct``, ``line``
+action      ``action`` (enable, disable, configure), ``behaviour``, ``params``, ``task``: an
+            order the firing just before sent to the vehicle (``task`` MISSION: the cleanup's)
+event       ``event``, ``data``: an event that fired transitions
+ignored     ``event``, ``reason``: an event that fired nothing
+note        ``note``: text for people (never read back by a program)
+cleanup     ``behaviours``: the player's own switch-off, when the net has left these on at the
+            end (or could not end); a plain disable of each, task MISSION, follows
+==========  ===================================================================================
+
 A run log is evidence: every record carries a ``digest`` chained over the records before it,
 ``sha256(previous digest + the record's canonical JSON)`` (the canonical JSON is the record
 without its digest, keys sorted, no spaces; the header's previous digest is :data:`GENESIS`).

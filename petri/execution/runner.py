@@ -2,7 +2,9 @@
 
 Each round: settle the player (immediate firings, due timers), then wait for the vehicle's
 events until the next timer falls due â€” in simulated time the clock jumps there; in wall time
-the wait is real but bounded.
+the wait is real but bounded. After each call of the player (start, an event, a settle, the
+abort) the runner drains the player's outbox and sends its orders to the vehicle, in order;
+the player's observers (the run log, a monitor) only observe.
 
 One clock for people: the player runs on *mission time*, which counts from the mission's
 start (0 s); the vehicle's clock at that start is the :class:`MissionClock`'s ``origin``, so
@@ -15,7 +17,9 @@ tasks and switch their latches off, then the player switches off anything left â
 - the mission time limit is reached (at the limit itself, never at the next timer after it);
 - nothing can happen any more (no timer armed and the vehicle idle: "stuck");
 - ``stop()`` asks for it (a signal, an operator);
-- the vehicle or its adapter raised an exception (sending, receiving, reading its clock).
+- the vehicle or its adapter raised an exception (sending, receiving, reading its clock);
+- an observer of the player raised one (the run log on a full disk): the player finishes
+  the call under way first, so the net is never left half-fired.
 
 After an abort the vehicle is given a bounded time (``confirm`` wall seconds) to confirm that
 what was switched off is off, where its link can say so (``vehicle.confirm_off``).
@@ -30,7 +34,7 @@ from dataclasses import dataclass, field
 
 from aal.messages import ActionMessage, Vehicle
 
-from petri.execution.player import Player, Record
+from petri.execution.player import Order, Player
 
 log = logging.getLogger(__name__)
 
@@ -72,38 +76,48 @@ def run(player: Player, vehicle: Vehicle, mission: str, max_time: float = UNBOUN
     disabled: list[str] = []  # behaviours disabled once the run is being stopped
     stopping = [False]
 
-    def forward(record: Record) -> None:
-        if record.kind != "action":
-            return
-        d = record.data
-        if stopping[0] and d["action"] == "disable":
-            disabled.append(d["behaviour"])
+    def send(order: Order) -> None:
+        if stopping[0] and order.kind == "disable":
+            disabled.append(order.behaviour)
         try:
-            vehicle.send(ActionMessage(next(seq), record.t, mission, d["task"], d["action"],
-                                       d["behaviour"], d["params"]))
+            vehicle.send(ActionMessage(next(seq), order.t, mission, order.task, order.kind,
+                                       order.behaviour, order.params))
         except Exception as exc:  # noqa: BLE001 - reported, then the run is stopped safely
-            failures.append(f"sending {d['action']} {d['behaviour']}: "
+            failures.append(f"sending {order.kind} {order.behaviour}: "
                             f"{type(exc).__name__}: {exc}")
             log.warning("vehicle refused an action: %s", failures[-1])
 
+    def drain() -> None:
+        """Send the orders waiting in the player's outbox, oldest first."""
+        while player.outbox:
+            send(player.outbox.popleft())
+
     def end(status: str, t: float, rounds: int, reason: str) -> Outcome:
         stopping[0] = True
-        try:
-            if status == "timeout" and not player.finished:
+        drain()  # what the player decided before the stop goes out first
+        trouble: list[Exception] = []
+        if status == "timeout" and not player.finished:
+            try:
                 player.settle(t)  # the timers due at the limit itself still fire
-                if player.finished:  # and ended the mission by themselves
-                    return _ended(player, vehicle, t, rounds, disabled, confirm)
+            except Exception as exc:  # noqa: BLE001 - the abort below still runs
+                trouble.append(exc)
+            drain()
+            if player.finished and not trouble:  # they ended the mission by themselves
+                return _ended(player, vehicle, t, rounds, disabled, confirm)
+        try:
             player.abort(t, reason)
-        except Exception as exc:  # noqa: BLE001 - a bug in the player: switch off directly
-            log.error("the player could not abort (%s): switching off what is on", exc)
-            for b in sorted(player.behaviours_on):
-                forward(Record(t, "action", {"action": "disable", "behaviour": b,
-                                             "params": {}, "task": "MISSION"}))
+        except Exception as exc:  # noqa: BLE001 - an observer, or a bug in the player
+            trouble.append(exc)
+        drain()
+        if trouble:
+            log.error("the player could not abort cleanly (%s): switching off what is on",
+                      trouble[0])
+            for b in sorted(player.behaviours_on):  # what the net could not switch off
+                send(Order(t, "MISSION", "disable", b, {}))
         outcome = Outcome(status, t, rounds, reason, switched_off=sorted(set(disabled)))
         outcome.confirmed = _confirm(vehicle, outcome.switched_off, confirm)
         return outcome
 
-    player.observers.insert(0, forward)
     try:
         clock.origin = vehicle.now()
     except Exception as exc:  # noqa: BLE001
@@ -112,11 +126,14 @@ def run(player: Player, vehicle: Vehicle, mission: str, max_time: float = UNBOUN
     why = stop() if stop is not None else None
     if why:  # stopped before anything was sent
         return end("stopped", 0.0, 0, why)
-    player.start(0.0)
     limit = max_time if math.isfinite(max_time) else math.inf
     simulated = bool(getattr(vehicle, "simulated", False))
     last_seq, now, rounds = -1, 0.0, 0
     try:
+        try:
+            player.start(0.0)
+        finally:
+            drain()
         for rounds in range(1, max_rounds + 1):
             now = vehicle.now() - origin
             if player.finished:
@@ -141,15 +158,20 @@ def run(player: Player, vehicle: Vehicle, mission: str, max_time: float = UNBOUN
             for event in vehicle.receive(until + origin):
                 t = vehicle.now() - origin
                 if event.seq <= last_seq:
-                    player._emit(t, "ignored", {
-                        "event": event.event, "reason": f"seq {event.seq} after {last_seq}: "
-                        "duplicate or out of order"})
+                    player.note_ignored(event.event, t, f"seq {event.seq} after {last_seq}: "
+                                        "duplicate or out of order")
                     continue
                 last_seq = event.seq
-                player.handle_event(event.event, t, event.data)
-            player.settle(min(vehicle.now() - origin, limit))
-    except Exception as exc:  # the vehicle, its adapter, or the player: stop safely, then say
-        try:
+                try:
+                    player.handle_event(event.event, t, event.data)
+                finally:
+                    drain()
+            try:
+                player.settle(min(vehicle.now() - origin, limit))
+            finally:
+                drain()
+    except Exception as exc:  # the vehicle, its adapter, the player or an observer: stop
+        try:                  # safely, then say
             now = max(now, vehicle.now() - origin)
         except Exception:  # noqa: BLE001 - the clock itself failed: keep the last reading
             pass

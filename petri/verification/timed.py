@@ -15,10 +15,11 @@ timer of d seconds  [d, d]       it fires exactly d after it became enabled (wid
                                  ``slack``, see below); a timer naming a mission parameter
                                  takes its value from ``params``, or [0, inf) if it has none
 immediate           [0, 0]       fires at once; urgent: time cannot pass while one is enabled
-``Mission.abort``   never        the external stop is verified separately (SEMANTICS.md §3);
-                                 with ``stop=True``, an event: the stop may come at any time,
-                                 and then, as the player does, only what can fire in that
-                                 same instant fires (time stops; no event is taken)
+``Mission.abort``   never        the external stop, verified on its own
+                                 (docs/SEMANTICS.md §3); with ``stop=True``, an event: the
+                                 stop may come at any time, and then, as the player does,
+                                 only what can fire in that same instant fires (time
+                                 stops; no event is taken)
 ==================  ===========  ==========================================================
 
 Strong semantics: time cannot pass beyond the upper bound of an enabled transition. A
@@ -69,7 +70,7 @@ import numpy as np
 import numpy.typing as npt
 
 from petri.net import Net
-from petri.semantics import MISSION_ABORT
+from petri.semantics import Semantics
 
 INF = math.inf  # "no bound" in a DBM (finite bounds are exact integers)
 NS = 1_000_000_000  # nanoseconds per second
@@ -141,52 +142,49 @@ class TimedSpace:
 def intervals(net: Net, params: dict[str, Any] | None = None,
               slack: float = DEFAULT_SLACK) -> list[tuple[float, float] | None]:
     """Each transition's static firing interval in ns ([lo, INF] when unbounded); None for
-    an event transition, which needs no clock, and for ``Mission.abort``, left out."""
+    an event transition, which needs no clock, and for ``Mission.abort``, left out. The
+    kinds of transition and the timers' seconds are the player's (:class:`Semantics`)."""
     params = params or {}
+    rules = Semantics(net)
     out: list[tuple[float, float] | None] = []
-    for tr in net.transitions:
-        timer = tr.timer
-        if isinstance(timer, str):
-            value = params.get(timer)
-            timer = (float(value) if isinstance(value, (int, float))
-                     and not isinstance(value, bool) else None)
-            if timer is None:
-                out.append(None if tr.event is not None else (0, INF))
-                continue
-        if timer is not None:
-            d = float(timer)
-            if not 0 <= d < math.inf:  # the player refuses it: assume nothing
-                out.append((0, INF))
-                continue
-            hi = math.ceil((d + slack) * NS)
-            out.append((0, hi) if tr.event is not None  # an event may end it earlier
-                       else (max(0, math.floor((d - slack) * NS)), hi))
-        elif tr.event is not None:
-            out.append(None)
-        else:
+    for t, tr in enumerate(net.transitions):
+        if rules.immediate[t]:
             out.append((0, 0))
+            continue
+        if tr.timer is None:  # event-driven
+            out.append(None)
+            continue
+        try:
+            d = rules.delay(t, params)
+        except ValueError:  # a delay the player refuses: assume nothing
+            out.append((0, INF))
+            continue
+        if d is None:  # a parameter without a value: any delay
+            out.append(None if tr.event is not None else (0, INF))
+            continue
+        hi = math.ceil((d + slack) * NS)
+        out.append((0, hi) if tr.event is not None  # an event may end it earlier
+                   else (max(0, math.floor((d - slack) * NS)), hi))
     return out
 
 
 class _Net:
-    """The net as the search needs it: arcs per transition, readers per place."""
+    """The net as the search needs it: the player's rules (:class:`Semantics`: arcs,
+    readers, the firing rule, the kinds of transition) over markings kept as ``bytes``, and
+    each transition's static interval and clock."""
 
     def __init__(self, net: Net, params: dict[str, Any] | None, slack: float, stop: bool):
-        self.inputs = [t.inputs for t in net.transitions]
-        self.outputs = [t.outputs for t in net.transitions]
+        self.rules = rules = Semantics(net)
+        self.inputs, self.outputs, self.readers = rules.inputs, rules.outputs, rules.readers
         self.static = intervals(net, params, slack)
-        self.stops = [t.event == MISSION_ABORT for t in net.transitions]
+        stops = set(rules.stops)
+        self.stops = [t in stops for t in range(len(net.transitions))]
         self.skip = [s and not stop for s in self.stops]
         # the clock each transition fires by: its own for a timer, one shared URGENT clock
         # (always 0) for every immediate one, none for an event
         self.clock: list[int | None] = [
-            None if s is None else URGENT if s == (0, 0) and tr.timer is None else t
-            for t, (s, tr) in enumerate(zip(self.static, net.transitions))]
-        readers: list[list[int]] = [[] for _ in net.places]
-        for t, arcs in enumerate(self.inputs):
-            for p, _ in arcs:
-                readers[p].append(t)
-        self.readers = readers
+            None if s is None else URGENT if rules.immediate[t] else t
+            for t, s in enumerate(self.static)]
 
     def clocks(self, enabled: list[int], stopped: bool) -> list[int]:
         """The clocks of a class: URGENT if an immediate transition is enabled or the
@@ -202,7 +200,7 @@ class _Net:
         return static
 
     def enabled(self, m: bytes | bytearray, t: int) -> bool:
-        return not self.skip[t] and all(m[p] >= w for p, w in self.inputs[t])
+        return not self.skip[t] and self.rules.enabled(m, t)
 
     def all_enabled(self, m: bytes) -> list[int]:
         return [t for t in range(len(self.inputs)) if self.enabled(m, t)]
@@ -210,12 +208,10 @@ class _Net:
     def fire(self, m: bytes, t: int) -> bytes | None:
         """The marking after firing ``t``; None if a place would hold more than 255 tokens."""
         after = bytearray(m)
-        for p, w in self.inputs[t]:
-            after[p] -= w
-        for p, w in self.outputs[t]:
-            if after[p] + w > 255:
-                return None
-            after[p] += w
+        try:
+            self.rules.fire(after, t)
+        except ValueError:  # a byte above 255
+            return None
         return bytes(after)
 
 
@@ -267,11 +263,9 @@ def explore_timed(net: Net, params: dict[str, Any] | None = None,
     """Breadth-first state-class graph of ``net`` read as a time Petri net (module doc).
     ``stop``: include the external stop (``Mission.abort``) as an event."""
     n = _Net(net, params, slack, stop)
-    initial = bytearray(len(net.places))
-    for p, tokens in net.initial.items():
-        if tokens > 255:
-            raise ValueError("the initial marking has more than 255 tokens in one place")
-        initial[p] = tokens
+    initial = n.rules.initial()
+    if max(initial, default=0) > 255:
+        raise ValueError("the initial marking has more than 255 tokens in one place")
     m0 = bytes(initial)
     en0 = n.all_enabled(m0)
     clocks0 = n.clocks(en0, False)

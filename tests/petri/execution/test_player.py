@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import pytest
 
+from petri.execution.player import Record
 from tests.harness import TRY, Harness, T, drive, without_notes
 
 
@@ -609,4 +610,112 @@ def test_every_construct_schedule_trace() -> None:
     h = Harness(EVERY_CONSTRUCT)
     drive(h, SCHEDULE)
     assert h.trace() == expected
+    h.assert_finished("ok")
+
+
+# -- the outbox: what leaves the player for the vehicle -------------------------------------
+def orders(h: Harness) -> list[tuple[float, str, str, str]]:
+    """The outbox, drained: (t, kind, behaviour, task) of each order, oldest first."""
+    out = []
+    while h.player.outbox:
+        o = h.player.outbox.popleft()
+        out.append((o.t, o.kind, o.behaviour, o.task))
+    return out
+
+
+def action_records(h: Harness, since: int = 0) -> list[tuple[float, str, str, str]]:
+    return [(r.t, r.data["action"], r.data["behaviour"], r.data["task"])
+            for r in h.records[since:] if r.kind == "action"]
+
+
+def test_orders_leave_through_the_outbox_in_the_order_they_are_decided() -> None:
+    # The alarm stops A and starts B in one instant: the outbox holds exactly the actions
+    # the records report, in the same order, after each call (nobody else sends them).
+    h = Harness(TRY).start(0)
+    assert orders(h) == action_records(h) == [(0, "enable", "Alpha", "A@2:7"),
+                                              (0, "enable", "Watch", "Watch@2:21")]
+    seen = len(h.records)
+    h.event("Watch.alarm", 1)
+    sent = orders(h)
+    assert [(kind, b) for _, kind, b, _ in sent] == [
+        ("disable", "Watch"), ("disable", "Alpha"), ("enable", "Beta")]
+    assert sent == action_records(h, seen)
+    assert orders(h) == []  # drained
+    seen = len(h.records)
+    h.event("Beta.ok", 2)
+    assert orders(h) == action_records(h, seen) == [(2, "disable", "Beta", "B@2:36")]
+    h.assert_finished("ok")
+
+
+def test_an_observer_that_raises_cannot_leave_the_net_half_fired() -> None:
+    # A(); Wait(2 s); B(): an observer (a run log on a full disk) raises on the firing that
+    # Alpha.ok causes. That firing and the whole call still complete: Alpha's disable is in
+    # the outbox, Wait's timer is armed from t = 1, the observer after it saw every record;
+    # then the error reaches the caller, once.
+    h = Harness("A(); Wait(2 s); B()").start(0)
+
+    def full_disk(record: Record) -> None:
+        if record.kind == "fire" and record.data["cause"] == "Alpha.ok":
+            raise OSError(28, "No space left on device")
+
+    h.player.observers.insert(0, full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        h.event("Alpha.ok", 1)
+    assert h.player.behaviours_on == {}
+    assert h.player.next_deadline() == pytest.approx(3.0)
+    assert h.trace()[-2:] == [("event", "Alpha.ok"), ("disable", "Alpha")]
+    assert orders(h) == [(0, "enable", "Alpha", "A@2:1"), (1, "disable", "Alpha", "A@2:1")]
+    h.player.settle(3)  # no error left over: the player goes on from a whole state
+    assert orders(h) == [(3, "enable", "Beta", "B@2:17")]
+    h.event("Beta.ok", 4)
+    h.assert_finished("ok")
+
+
+def test_an_observer_that_raises_during_the_abort_does_not_stop_the_abort() -> None:
+    # The safe exit must finish: every block stopped, the latch off, the mission ended fail,
+    # whatever the observers do; then the observer's error propagates.
+    h = Harness("Light(enable); A()").start(0)
+
+    def broken(record: Record) -> None:
+        raise RuntimeError("observer broke")
+
+    h.player.observers.insert(0, broken)
+    with pytest.raises(RuntimeError, match="observer broke"):
+        h.player.abort(1, "operator")
+    assert h.player.status == "fail" and h.player.behaviours_on == {}
+    assert sorted(b for _, kind, b, _ in orders(h) if kind == "disable") == ["Alpha", "Light"]
+    h.player.observers.remove(broken)
+    h.assert_conformant()
+
+
+def test_note_ignored_records_an_event_that_fires_nothing() -> None:
+    h = Harness("A()").start(0)
+    fired = h.player.fired
+    h.player.note_ignored("Alpha.ok", 1, "seq 3 after 5: duplicate or out of order")
+    assert h.player.fired == fired and h.player.status == "running"
+    assert h.records[-1].kind == "ignored"
+    assert h.records[-1].data == {"event": "Alpha.ok",
+                                  "reason": "seq 3 after 5: duplicate or out of order"}
+
+
+# -- the cleanup: the last line of defence as a typed record --------------------------------
+def test_the_switch_off_at_the_end_is_a_cleanup_record_before_its_disables() -> None:
+    # Light is latched and never unlatched: at the end the player switches it off itself,
+    # saying so in a ``cleanup`` record that names it, then the disable (task MISSION).
+    h = Harness("Light(enable); A()").start(0)
+    h.event("Alpha.ok", 1)
+    kinds = [(r.kind, r.data.get("behaviours") or r.data.get("behaviour")) for r in h.records
+             if r.kind in ("cleanup", "action", "status")][-4:]
+    assert kinds == [("action", "Alpha"), ("cleanup", ["Light"]), ("action", "Light"),
+                     ("status", None)]
+    last = [r for r in h.records if r.kind == "action"][-1]
+    assert last.data == {"action": "disable", "behaviour": "Light", "params": {},
+                         "task": "MISSION"}
+    h.assert_finished("ok", defence=True)
+
+
+def test_a_mission_the_net_switches_off_itself_has_no_cleanup_record() -> None:
+    h = Harness("Light(enable); A(); Light(disable)").start(0)
+    h.event("Alpha.ok", 1)
+    assert not [r for r in h.records if r.kind == "cleanup"]
     h.assert_finished("ok")

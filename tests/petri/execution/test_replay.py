@@ -269,3 +269,65 @@ def test_the_livelock_filter_knows_the_obvious_cases() -> None:
     assert may_loop_without_events(body("WHILE { PARALLEL { A() } OR { Now() } } DO { Now() }"))
     assert not may_loop_without_events(body("WHILE { A() } DO { Now() }"))
     assert not may_loop_without_events(body("WHILE { Now() } DO { B() }"))
+
+
+# -- the cleanup: read from its typed record, never from a note's text -----------------------
+def defence_log() -> tuple[Net, list[dict[str, Any]]]:
+    """A run whose net leaves Light on: note, cleanup [Light], disable Light (MISSION)."""
+    h = Harness("Light(enable); A()").start(0)
+    h.event("Alpha.ok", 1)
+    return h.net, log_records(h.net, h.records)
+
+
+def index_of(records: list[dict[str, Any]], kind: str) -> int:
+    return next(i for i, r in enumerate(records) if r["kind"] == kind)
+
+
+def test_replay_reads_the_cleanup_from_its_record_and_ignores_the_notes() -> None:
+    net, records = defence_log()
+    assert check(net, records, {}).ok
+    c = index_of(records, "cleanup")
+    assert records[c]["behaviours"] == ["Light"]
+    assert records[c + 1]["kind"] == "action" and records[c + 1]["task"] == "MISSION"
+    # the notes are text for people: rewording or dropping them changes nothing
+    reworded = [{**r, "note": "something else"} if r["kind"] == "note" else r
+                for r in records]
+    assert check(net, reworded, {}).ok
+    assert check(net, [r for r in records if r["kind"] != "note"], {}).ok
+
+
+def test_replay_refuses_a_disable_by_mission_without_a_cleanup_record() -> None:
+    # as a log from before cleanup records reads: the note's text alone does not count
+    net, records = defence_log()
+    c = index_of(records, "cleanup")
+    old_style = records[:c] + records[c + 1:]
+    result = check(net, old_style, {})
+    assert not result.ok and result.line == records[c + 1]["_line"]
+    assert "no 'cleanup' record" in result.reason
+
+
+@pytest.mark.parametrize("named", [["Light", "Alpha"], [], ["Alpha"]])
+def test_replay_refuses_a_cleanup_that_does_not_name_what_is_on(named: list[str]) -> None:
+    net, records = defence_log()
+    c = index_of(records, "cleanup")
+    records[c] = {**records[c], "behaviours": named}
+    result = check(net, records, {})
+    assert not result.ok and result.line == records[c]["_line"], result
+    assert "the behaviours on are ['Light']" in result.reason
+
+
+def test_replay_refuses_an_end_with_a_behaviour_still_on() -> None:
+    net, records = defence_log()
+    c = index_of(records, "cleanup")
+    cut = records[:c] + records[c + 2:]  # neither the cleanup nor its disable
+    result = check(net, cut, {})
+    assert not result.ok and "still on" in result.reason, result
+
+
+def test_replay_refuses_a_malformed_cleanup_record() -> None:
+    net, records = defence_log()
+    c = index_of(records, "cleanup")
+    for bad in ("Light", [1]):
+        edited = [*records[:c], {**records[c], "behaviours": bad}, *records[c + 1:]]
+        result = check(net, edited, {})
+        assert not result.ok and result.line == records[c]["_line"], (bad, result)

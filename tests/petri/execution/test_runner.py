@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import pytest
 
-from tests.harness import TRY, T, ev, run_with
+from petri.execution.player import Record
+from petri.execution.runner import run
+from tests.harness import TRY, Harness, ListStack, T, ev, run_with
+from vehicle_adapters.inprocess import InProcess
 
 
 # -- the runner: duplicated and out-of-order messages ----------------------------------------
@@ -55,3 +58,50 @@ def test_runner_jumps_to_timers_in_simulated_time() -> None:
     assert h.timed() == [(5.0, "enable", "Alpha"), (6.0, "disable", "Alpha")]
     assert outcome.status == "ok" and outcome.time == pytest.approx(7.5)
     h.assert_finished("ok")
+
+
+# -- the player's outbox, drained by the runner -----------------------------------------------
+def test_the_runner_sends_the_outbox_in_order_and_leaves_the_observers_alone() -> None:
+    # What reaches the vehicle is exactly the action records, in their order, numbered by
+    # seq; the observers are the ones the caller gave (the runner adds none of its own).
+    h, outcome, vehicle = run_with(TRY, [(5, ev(0, 5, "Watch.alarm")),
+                                         (6, ev(1, 6, "Beta.ok"))])
+    assert outcome.status == "ok"
+    assert h.player.observers == [h.records.append]
+    assert not h.player.outbox
+    stack = vehicle.stack
+    assert isinstance(stack, ListStack)
+    sent = [(a.t, a.kind, a.behaviour, a.task, a.params) for a in stack.actions]
+    assert sent == [(r.t, r.data["action"], r.data["behaviour"], r.data["task"],
+                     r.data["params"]) for r in h.records if r.kind == "action"]
+    assert [a.seq for a in stack.actions] == list(range(len(sent)))
+    assert [(kind, b) for _, kind, b, _, _ in sent] == [
+        ("enable", "Alpha"), ("enable", "Watch"), ("disable", "Watch"), ("disable", "Alpha"),
+        ("enable", "Beta"), ("disable", "Beta")]
+
+
+def test_an_observer_that_raises_stops_the_run_safely_with_the_net_whole() -> None:
+    # A run log on a full disk: from t = 2 every record it is given raises. The firing under
+    # way completes, the runner stops the run through the net's abort (which completes too),
+    # and every behaviour is switched off on the vehicle; the outcome says why.
+    h = Harness("Light(enable); A(); Wait(10 s)")
+    seen: list[tuple[float, str]] = []
+
+    def full_disk(record: Record) -> None:
+        if record.t >= 2:
+            raise OSError(28, "No space left on device")
+        seen.append((record.t, record.kind))
+
+    h.player.observers.append(full_disk)
+    vehicle = InProcess(ListStack([(2, ev(0, 2, "Alpha.ok"))]))
+    outcome = run(h.player, vehicle, "m", max_time=1000)
+    assert outcome.status == "error" and "No space left" in outcome.reason, outcome
+    assert outcome.time == 2
+    assert h.player.finished and h.player.behaviours_on == {}
+    stack = vehicle.stack
+    assert isinstance(stack, ListStack)
+    assert [(a.kind, a.behaviour) for a in stack.actions] == [
+        ("enable", "Light"), ("enable", "Alpha"), ("disable", "Alpha"), ("disable", "Light")]
+    assert sorted(outcome.switched_off) == ["Light"]
+    assert seen and max(t for t, _ in seen) < 2
+    h.assert_conformant()  # the records (the other observer's) are a legal run
