@@ -19,7 +19,7 @@ from diagnostics import Diagnostic, MclError, Source, Span
 
 from mcl import ast
 from mcl.parser import KEYWORDS, suggest
-from mcl.tasklib import Formal, Library, TaskForm
+from mcl.declarations import Formal, Library, TaskForm
 from mcl.values import FIELDS, check, describe, limits, to_text
 
 

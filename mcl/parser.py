@@ -118,8 +118,8 @@ def parse(source: Source) -> ast.Mission:
         tree = _lark().parse(source.text, start="start")
     except UnexpectedInput as exc:
         raise _friendly(source, exc) from None
-    _check_depth(source, tree)
-    return _Builder(source).mission(tree)
+    check_depth(source, tree)
+    return AstBuilder(source).mission(tree)
 
 
 def parse_value(text: str, origin: str = "<command line>", line: int = 1,
@@ -135,8 +135,8 @@ def parse_value(text: str, origin: str = "<command line>", line: int = 1,
         raise error(source, f"not a value: {text!r}", source.span(1, max(col - column + 1, 1)),
                     "values are numbers with an optional unit (1.5 m), lists [a, b], "
                     "points (x, y, z, yaw) or names", code="bad-value") from None
-    _check_depth(source, tree)
-    return _Builder(source).value(tree)
+    check_depth(source, tree)
+    return AstBuilder(source).value(tree)
 
 
 # -- friendly syntax errors ------------------------------------------------------------------
@@ -173,6 +173,7 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
                                       use_accepts=True)
         except Exception:  # match_examples may itself fail on odd states: fall back
             code = None
+    code = _after_item(exc, token, code)
     if code is not None:
         message, hint, _ = KNOWN_MISTAKES[code]
         span = source.span(line, col)
@@ -196,6 +197,23 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
     expected = sorted(_pretty_terminal(t) for t in getattr(exc, "expected", ()) or ())
     return error(source, f"unexpected {_pretty_token(token)}", _tok_span(source, token),
                  f"expected {_one_of(expected)}" if expected else "", code="syntax")
+
+
+# After a whole item of a block (a ';' or a '}' may come next), the parser is in the same state
+# whichever item it was, so match_examples tells these mistakes apart by the token that came.
+AFTER_ITEM = {"CATCH": "missing-brace-before-catch", "DO": "missing-brace-before-do",
+              "THEN": "missing-brace-before-then-else", "ELSE": "missing-brace-before-then-else",
+              **{t: "missing-semicolon" for t in ("NAME", "TRY", "PARALLEL", "IF", "WHILE")}}
+
+
+def _after_item(exc: UnexpectedInput, token: Token | None, code: str | None) -> str | None:
+    """The mistake an unexpected token right after an item of a block is (``code``, what
+    match_examples found, when the token says nothing more)."""
+    accepts = getattr(exc, "accepts", None) or getattr(exc, "expected", None) or set()
+    if (token is None or token.type not in AFTER_ITEM or not {"RBRACE", "SEMICOLON"} <= accepts
+            or code not in (None, *AFTER_ITEM.values())):
+        return code
+    return AFTER_ITEM[token.type]
 
 
 def _token_before(source: Source, line: int, col: int) -> Token | None:
@@ -244,7 +262,7 @@ def _one_of(items: list[str]) -> str:
     return items[0] if len(items) == 1 else "one of " + ", ".join(items)
 
 
-def _check_depth(source: Source, tree: Tree[Token]) -> None:
+def check_depth(source: Source, tree: Tree[Token]) -> None:
     """Refuse absurd nesting before anything recursive walks the tree."""
     stack: list[tuple[Tree[Token], int]] = [(tree, 0)]
     steps = 0
@@ -264,7 +282,10 @@ def _check_depth(source: Source, tree: Tree[Token]) -> None:
 
 
 # -- parse tree -> AST -----------------------------------------------------------------------
-class _Builder:
+class AstBuilder:
+    """Turns a lark parse tree of MCL (or of a value, or of a value in a task library) into
+    the AST, every node with its span in ``source``."""
+
     def __init__(self, source: Source):
         self.source = source
 

@@ -52,12 +52,12 @@ def declaration(script: Script, where: str) -> Declaration:
     from mcl import tasklib
     from vehicle.scripted import ScriptError, check_script
 
-    from app.safe_exit import declared_behaviours
+    from mission.capabilities import declared_behaviours
 
     texts = []
     for library in script.tasks:
         try:
-            source = (tasklib._shipped(f"{library}.tasks") if tasklib.is_shipped(library)
+            source = (tasklib.shipped_source(f"{library}.tasks") if tasklib.is_shipped(library)
                       else read_source(library))
         except MclError as exc:
             raise ScriptError(f"{where}: tasks: {exc.format()}") from None

@@ -26,8 +26,10 @@ The intervals of a block are the hull of its runs' durations: exact for one task
 (never narrower than the truth) for every construct. The worst case comes with its *critical
 path*: the task calls in order, each with how it ends and how long it takes, that make it.
 
-Apart from the proof, a nominal *estimate* (each task its ``estimate:`` clause, ok; watchers
-never fire) and, with ``power N W`` declared per behaviour, the worst-case energy.
+Apart from the proof, a nominal *estimate* (mcl/analysis/estimate.py: each task its
+``estimate:`` clause, ok; watchers never fire) and, with ``power N W`` declared per behaviour,
+the worst-case energy (mcl/analysis/energy.py). A call's timers follow the one rule of
+mcl/timers.py; the text report of ``mclc`` is app/reports/duration.py.
 """
 
 from __future__ import annotations
@@ -38,12 +40,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mcl import ast, printer
-from mcl.checker import Checked, Resolved
-from mcl.tasklib import Expr, Field, TaskForm
-from mcl.values import Unresolved, evaluate
+from mcl.analysis.energy import Energy, worst_energy
+from mcl.analysis.estimate import estimate
+from mcl.checker import Checked
+from mcl.quantities import seconds_text
+from mcl.timers import timers
 
 INF = math.inf
-WH = 3600.0  # joules per watt-hour
 
 
 @dataclass(frozen=True)
@@ -58,10 +61,7 @@ class Step:
 
     def to_json(self) -> dict[str, Any]:
         return {"line": self.line, "col": self.col, "task": self.text, "ending": self.ending,
-                "seconds": _num(self.seconds)}
-
-    def describe(self) -> str:
-        return f"line {self.line}: {self.text} {self.ending} ({seconds_text(self.seconds)})"
+                "seconds": json_number(self.seconds)}
 
 
 Path = tuple[Step, ...]
@@ -83,6 +83,8 @@ Ends = dict[str, End]  # "ok" / "fail" -> End; a status the block cannot end wit
 
 @dataclass(frozen=True)
 class BlockBound:
+    """The bounds of one block, by the way it ends: ``ends`` "ok" / "fail" -> (lo, hi)."""
+
     construct: str
     line: int
     col: int
@@ -99,25 +101,18 @@ class BlockBound:
 
     def to_json(self) -> dict[str, Any]:
         return {"construct": self.construct, "line": self.line, "col": self.col,
-                "block": self.text, "best": _num(self.best), "worst": _num(self.worst),
-                "ends": {k: [_num(lo), _num(hi)] for k, (lo, hi) in self.ends.items()}}
-
-
-@dataclass
-class Energy:
-    """Worst-case energy (joules) with the power declared per behaviour."""
-
-    worst_j: float
-    latched: dict[str, float]  # behaviour latched -> watts (counted for the whole mission)
-    undeclared: list[str]  # behaviours switched on whose power no library declares
-
-    @property
-    def worst_wh(self) -> float:
-        return self.worst_j / WH
+                "block": self.text, "best": json_number(self.best),
+                "worst": json_number(self.worst),
+                "ends": {k: [json_number(lo), json_number(hi)]
+                         for k, (lo, hi) in self.ends.items()}}
 
 
 @dataclass
 class Durations:
+    """The proved bounds of a mission (seconds; inf: unbounded), its paths, every block's
+    bounds, what makes it unbounded, and apart from the proof the nominal estimate and the
+    worst-case energy."""
+
     best: float
     worst: float
     ends: dict[str, tuple[float, float]]
@@ -133,83 +128,28 @@ class Durations:
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {
-            "best": _num(self.best), "worst": _num(self.worst),
+            "best": json_number(self.best), "worst": json_number(self.worst),
             "bounded": math.isfinite(self.worst),
-            "ends": {k: [_num(lo), _num(hi)] for k, (lo, hi) in self.ends.items()},
+            "ends": {k: [json_number(lo), json_number(hi)]
+                     for k, (lo, hi) in self.ends.items()},
             "critical_path": [s.to_json() for s in self.critical_path],
             "best_path": [s.to_json() for s in self.best_path],
             "unbounded_by": [s.to_json() for s in self.unbounded],
             "loops": [s.to_json() for s in self.loops],
-            "estimate": {"seconds": None if self.estimate is None else _num(self.estimate),
+            "estimate": {"seconds": (None if self.estimate is None
+                                     else json_number(self.estimate)),
                          "label": "estimate (not proved)", "notes": self.estimate_notes},
             "blocks": [b.to_json() for b in self.blocks]}
         if self.energy is not None:
-            out["energy"] = {"worst_wh": _num(self.energy.worst_wh),
+            out["energy"] = {"worst_wh": json_number(self.energy.worst_wh),
                              "latched_w": self.energy.latched,
                              "undeclared": self.energy.undeclared}
         return out
 
-    def path_text(self, indent: str = "  ") -> list[str]:
-        """The critical path, up to its first unbounded step (what follows never comes)."""
-        out = []
-        for s in self.critical_path:
-            out.append(indent + s.describe())
-            if not math.isfinite(s.seconds):
-                break
-        return out
 
-
-def _num(x: float) -> float | None:
+def json_number(x: float) -> float | None:
     """JSON has no infinity: an unbounded figure is null."""
     return round(x, 6) if math.isfinite(x) else None
-
-
-def seconds_text(s: float) -> str:
-    if not math.isfinite(s):
-        return "unbounded"
-    if s < 120:
-        return f"{s:g} s"
-    return f"{s:g} s = {s / 60:.4g} min"
-
-
-# -- parsing command-line quantities ---------------------------------------------------------
-_DURATION_UNITS = {"s": 1.0, "sec": 1.0, "ms": 0.001, "min": 60.0, "h": 3600.0}
-
-
-def parse_quantity(text: str, units: dict[str, float], what: str, example: str) -> float:
-    """``45min``, ``1.5 h``, ``120Wh``... into base units; ValueError with one clear line."""
-    raw = text.strip()
-    number = raw.rstrip("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ% ")
-    unit = raw[len(number):].strip()
-    if unit not in units:
-        raise ValueError(f"{what} {text!r}: give a unit ({', '.join(units)}), e.g. {example}")
-    try:
-        value = float(number)
-    except ValueError:
-        raise ValueError(f"{what} {text!r}: not a number, e.g. {example}") from None
-    if not math.isfinite(value) or value < 0:
-        raise ValueError(f"{what} {text!r}: must be finite and not negative, e.g. {example}")
-    return value * units[unit]
-
-
-def parse_deadline(text: str) -> float:
-    return parse_quantity(text, _DURATION_UNITS, "--deadline", "--deadline 45min")
-
-
-def parse_battery(text: str) -> float:
-    """Watt-hours."""
-    value = parse_quantity(text, {"Wh": 1.0, "kWh": 1000.0}, "--battery", "--battery 800Wh")
-    if value == 0:
-        raise ValueError(f"--battery {text!r}: must be above 0 Wh, e.g. --battery 800Wh")
-    return value
-
-
-def parse_reserve(text: str) -> float:
-    """A fraction in [0, 1)."""
-    value = parse_quantity(text, {"%": 0.01}, "--reserve", "--reserve 20%")
-    if value >= 1:
-        raise ValueError(f"--reserve {text!r}: must be below 100%, e.g. --reserve 20%")
-    return value
 
 
 # -- the analysis ------------------------------------------------------------------------------
@@ -222,11 +162,11 @@ def analyse(checked: Checked, mission: ast.Mission | None = None) -> Durations:
     best = min(ends.values(), key=lambda e: e.lo)
     worst = max(ends.values(), key=lambda e: e.hi)
     unbounded = [s for s in worst.worst if not math.isfinite(s.seconds)]
-    estimate, notes = _Nominal(checked).mission(mission.body)
+    nominal, notes = estimate(checked, mission.body)
     out = Durations(best.lo, worst.hi, {k: (e.lo, e.hi) for k, e in ends.items()},
                     worst.worst, best.best, sorted(a.bounds, key=lambda b: (b.line, b.col)),
-                    unbounded, estimate, notes, unset_timers=a.unset, loops=a.loops)
-    out.energy = _energy(checked, mission.body, a, out.worst)
+                    unbounded, nominal, notes, unset_timers=a.unset, loops=a.loops)
+    out.energy = worst_energy(checked, mission.body, a.worst_of, out.worst)
     return out
 
 
@@ -309,10 +249,13 @@ class _Analysis:
                 return self.while_do(b, m[id(c)], m[id(body)])
         raise TypeError(b)
 
+    def worst_of(self, block: ast.Block) -> float:
+        """The worst case of a block already analysed, whichever way it ends."""
+        return max((e.hi for e in self.memo[id(block)].values()), default=INF)
+
     # -- a task call -------------------------------------------------------------------------
     def call(self, call: ast.Call) -> Ends:
-        resolved = self.checked.resolved(call)
-        form = resolved.form
+        form = self.checked.resolved(call).form
         text = printer.call(call)
         line, col = call.span.line, call.span.col
 
@@ -322,16 +265,16 @@ class _Analysis:
         if form.immediate:
             p = step("ends ok at once", 0.0)
             return {"ok": End(0.0, 0.0, p, p)}
-        timers: list[tuple[float, str]] = []
+        known: list[tuple[float, str]] = []
         unknown: list[str] = []  # timers naming a parameter without a value: any time
-        for expr, status in timeouts(form, resolved):
-            seconds = self.timer(expr, resolved)
-            if seconds is None:
-                self.unset.append(step(f"has a timer without a value ({status})", INF)[0])
-                unknown.append(status)
+        for timer in timers(self.checked, call):  # the rule: mcl/timers.py
+            if timer.known is None:
+                self.unset.append(step(f"has a timer without a value ({timer.status})",
+                                       INF)[0])
+                unknown.append(timer.status)
                 continue
-            timers.append((seconds, status))
-        first = min((s for s, _ in timers), default=INF)
+            known.append((timer.known, timer.status))
+        first = min((s for s, _ in known), default=INF)
         groups: list[tuple[str, End]] = []
         for status, events in (("ok", form.ok), ("fail", form.fail)):
             if events and first > 0:  # a 0 s timer fires before any event can come
@@ -340,7 +283,7 @@ class _Analysis:
                          step(f"waits for {' / '.join(events)} for ever (no timeout)", INF))
                 groups.append((status, End(0.0, first, step(
                     f"ends {status} at once on {events[0]}", 0.0), worst)))
-        for seconds, status in timers:
+        for seconds, status in known:
             if seconds <= first:
                 p = step(f"ends {status} by its {seconds_text(seconds)} timeout", seconds)
                 groups.append((status, End(seconds, seconds, p, p)))
@@ -349,19 +292,6 @@ class _Analysis:
                                        step(f"ends {status} by a timer without a value",
                                             first))))
         return _merge(groups)
-
-    def timer(self, expr: Expr, resolved: Resolved) -> float | None:
-        if isinstance(expr, Field):
-            return None
-        value: ast.Value = expr
-        if isinstance(expr, ast.Ref) and expr.name in resolved.args:
-            value = resolved.args[expr.name]
-        try:
-            seconds = evaluate(value, "duration", self.checked.params)
-        except Unresolved:
-            return None
-        assert isinstance(seconds, float | int)
-        return float(seconds)
 
     # -- constructs ---------------------------------------------------------------------------
     def parallel_and(self, branches: list[Ends]) -> Ends:
@@ -442,19 +372,6 @@ def _race(e: End, cap: End | None) -> End:
     return End(e.lo, cap.hi, e.best, cap.worst)
 
 
-def timeouts(form: TaskForm, resolved: Resolved) -> list[tuple[Expr, str]]:
-    """The timers of a call, as mcl/templates/task.py builds them: a per-call timeout (fail)
-    replaces a declared fail timeout; a declared ok timeout stays."""
-    out: list[tuple[Expr, str]] = []
-    if resolved.timeout is not None:
-        out.append((resolved.timeout, "fail"))
-        if form.timeout is not None and form.timeout[1] == "ok":
-            out.append(form.timeout)
-    elif form.timeout is not None:
-        out.append(form.timeout)
-    return out
-
-
 def _head(b: ast.Block) -> str:
     match b:
         case ast.Call():
@@ -472,285 +389,3 @@ def _head(b: ast.Block) -> str:
         case ast.WhileDo():
             return "WHILE ... DO"
     return type(b).__name__
-
-
-# -- energy -----------------------------------------------------------------------------------
-def _energy(checked: Checked, root: ast.Block, a: _Analysis, worst: float) -> Energy | None:
-    """Worst-case energy in joules: each block's energy bounded by the sum of its parts and by
-    its peak power times its worst duration; a latched behaviour draws for the whole mission.
-    None when no loaded library declares any power."""
-    behaviours = checked.library.behaviours
-    if all(b.power is None for b in behaviours.values()):
-        return None
-    undeclared: set[str] = set()
-    latched: dict[str, float] = {}
-
-    def watts(names: Iterable[str]) -> float:
-        total = 0.0
-        for n in names:
-            p = behaviours[n].power if n in behaviours else None
-            if p is None:
-                undeclared.add(n)
-            total += p or 0.0
-        return total
-
-    energy: dict[int, tuple[float, float]] = {}  # block -> (joules, peak watts)
-
-    def hi(x: ast.Block) -> float:
-        ends = a.memo[id(x)]
-        return max((e.hi for e in ends.values()), default=INF)
-
-    def times(p: float, s: float) -> float:
-        return 0.0 if p == 0 else p * s
-
-    for b in reversed(ast.walk(root)):
-        kids = [energy[id(k)] for k in ast.children(b)]
-        match b:
-            case ast.Call():
-                form = checked.resolved(b).form
-                if form.latch:
-                    latched[form.latch] = watts([form.latch])
-                p = watts(form.behaviours_on_while_running())
-                e, peak = times(p, hi(b)), p
-            case ast.Sequence() | ast.IfThenElse() | ast.WhileDo():
-                peak = max(k[1] for k in kids)
-                if isinstance(b, ast.IfThenElse):
-                    e = kids[0][0] + max(k[0] for k in kids[1:])
-                elif isinstance(b, ast.WhileDo) and math.isinf(hi(b)):
-                    e = times(peak, INF)
-                else:
-                    e = sum(k[0] for k in kids)
-            case ast.ParallelAnd():
-                e, peak = sum(k[0] for k in kids), sum(k[1] for k in kids)
-            case ast.ParallelOr():
-                span = hi(b)
-                e = sum(min(k[0], times(k[1], span)) for k in kids)
-                peak = sum(k[1] for k in kids)
-            case ast.TryCatchDo():
-                race = min(hi(b.try_), hi(b.catch))
-                e = (min(kids[0][0], times(kids[0][1], race))
-                     + min(kids[1][0], times(kids[1][1], race)) + kids[2][0])
-                peak = max(kids[0][1] + kids[1][1], kids[2][1])
-            case _:
-                raise TypeError(b)
-        energy[id(b)] = (min(e, times(peak, hi(b))), peak)
-    total = energy[id(root)][0] + sum(times(p, worst) for p in latched.values())
-    return Energy(total, latched, sorted(undeclared))
-
-
-# -- the nominal estimate ---------------------------------------------------------------------
-class _Nominal:
-    """One run where every task takes its ``estimate:`` and ends ok, timers fire on time and
-    watchers never fire. Not a proof: labelled as an estimate everywhere."""
-
-    MAX_LAPS = 10_000
-
-    def __init__(self, checked: Checked):
-        self.checked = checked
-        self.notes: list[str] = []
-        self.position: list[float] | None = None  # the last point a task was sent to
-
-    def mission(self, body: ast.Block) -> tuple[float | None, list[str]]:
-        end = self.block(body)
-        return (None if end is None else end[1]), self.notes
-
-    def block(self, b: ast.Block) -> tuple[str, float] | None:
-        match b:
-            case ast.Call():
-                return self.call(b)
-            case ast.Sequence(items=items):
-                total, status = 0.0, "ok"
-                for item in items:
-                    r = self.block(item)
-                    if r is None:
-                        return None
-                    status, total = r[0], total + r[1]
-                return status, total
-            case ast.ParallelAnd(branches=branches):
-                rs = [self.block(x) for x in branches]
-                if any(r is None for r in rs):
-                    return None
-                ends = [r for r in rs if r is not None]
-                return ("ok" if all(s == "ok" for s, _ in ends) else "fail",
-                        max(t for _, t in ends))
-            case ast.ParallelOr(branches=branches):
-                done = [r for r in (self.block(x) for x in branches) if r is not None]
-                return min(done, key=lambda r: r[1]) if done else None
-            case ast.TryCatchDo(try_=t, catch=c, do=d):
-                rt, rc = self.block(t), self.block(c)
-                if rc is not None and (rt is None or rc[1] < rt[1]):
-                    rd = self.block(d)
-                    return None if rd is None else (rd[0], rc[1] + rd[1])
-                return rt
-            case ast.IfThenElse(condition=c, then=t, else_=e):
-                rc = self.block(c)
-                if rc is None:
-                    return None
-                if rc[0] == "fail" and e is None:
-                    return rc
-                r = self.block(t if rc[0] == "ok" else e)  # type: ignore[arg-type]
-                return None if r is None else (r[0], rc[1] + r[1])
-            case ast.WhileDo(condition=c, body=body):
-                total = 0.0
-                for _ in range(self.MAX_LAPS):
-                    rc = self.block(c)
-                    if rc is None:
-                        return None
-                    total += rc[1]
-                    if rc[0] == "fail":
-                        return "ok", total
-                    rb = self.block(body)
-                    if rb is None:
-                        return None
-                    total += rb[1]
-                    if rb[0] == "fail":
-                        return "fail", total
-                self.notes.append(f"line {b.span.line}: WHILE goes round for ever nominally")
-                return None
-        raise TypeError(b)
-
-    def call(self, call: ast.Call) -> tuple[str, float] | None:
-        resolved = self.checked.resolved(call)
-        form = resolved.form
-        if form.immediate:
-            return "ok", 0.0
-        timers = []
-        for expr, status in timeouts(form, resolved):
-            seconds = _Analysis(self.checked).timer(expr, resolved)
-            if seconds is not None:
-                timers.append((seconds, status))
-        first = min(timers, default=None)
-        guess = self.guess(call, resolved)
-        if guess is not None and form.ok:
-            if first is not None and first[0] <= guess:
-                return first[1], first[0]
-            return "ok", guess
-        if first is not None and not form.ok:
-            return first[1], first[0]  # a timer, or a watcher that its timer ends
-        if form.ok:
-            self.notes.append(f"line {call.span.line}: {call.name} has no estimate: "
-                              "counted as 0 s")
-            return "ok", 0.0
-        return None  # a watcher: its alarm never comes in the nominal run
-
-    def guess(self, call: ast.Call, resolved: Resolved) -> float | None:
-        est = resolved.form.estimate
-        if est is None:
-            return None
-        env = self.checked.params
-        try:
-            if est.measure == "time":
-                assert est.value is not None and not isinstance(est.value, Field)
-                value: ast.Value = est.value
-                if isinstance(value, ast.Ref) and value.name in resolved.args:
-                    value = resolved.args[value.name]
-                return float(evaluate(value, "duration", env))  # type: ignore[arg-type]
-            arg = resolved.args[est.formal]
-            if est.measure == "distance":
-                target = evaluate(arg, "point", env)
-                assert isinstance(target, list)
-                here = self.position or [0.0, 0.0, 0.0]
-                if self.position is None:
-                    self.notes.append(f"line {call.span.line}: {call.name}: distance "
-                                      "from (0, 0, 0), the first point of the mission")
-                self.position = [float(v) for v in target[:3]]
-                return math.dist(here, self.position) / est.speed
-            points = evaluate(arg, "path", env)
-            assert isinstance(points, list)
-            return sum(math.dist(a[:n], b[:n]) for a, b in zip(points, points[1:])
-                       for n in [min(len(a), len(b))]) / est.speed
-        except Unresolved as missing:
-            self.notes.append(f"line {call.span.line}: {call.name}: parameter "
-                              f"{missing.name} has no value: counted as 0 s")
-            return 0.0
-
-
-# -- a report for mclc --------------------------------------------------------------------------
-@dataclass
-class Verdict:
-    """What ``--deadline``, ``--battery`` and ``--reserve`` conclude."""
-
-    failures: list[str]
-    lines: list[str]
-    report: dict[str, Any]
-
-
-def judge(d: Durations, deadline: float | None = None, battery_wh: float | None = None,
-          reserve: float | None = None) -> Verdict:
-    """The text and JSON of the bounds, and the checks asked for (each failure one line)."""
-    report = d.to_json()
-    lines = [f"  duration: best {seconds_text(d.best)}, worst {seconds_text(d.worst)} "
-             "(proved: timeouts and timers only)"]
-    if d.estimate is not None:
-        lines.append(f"  estimate (not proved): {seconds_text(d.estimate)}")
-    failures: list[str] = []
-    if deadline is not None:
-        report["deadline"] = {"seconds": deadline, "holds": d.worst <= deadline}
-        if d.worst > deadline:
-            failures.append(f"deadline {seconds_text(deadline)}: some run can take "
-                            f"{seconds_text(d.worst)}" if math.isfinite(d.worst) else
-                            f"deadline {seconds_text(deadline)}: some run can last for ever"
-                            + "".join(f" ({s.describe()})" for s in d.unbounded[:1]))
-        else:
-            lines.append(f"  deadline {seconds_text(deadline)} holds for every run")
-    if d.energy is not None:
-        lines.append(f"  energy: worst {_wh(d.energy.worst_wh)}")
-    if battery_wh is not None:
-        worst = d.energy.worst_wh if d.energy is not None else INF
-        usable = battery_wh * (1 - (reserve or 0.0))
-        margin = battery_wh - worst
-        report["battery"] = {"wh": battery_wh, "worst_wh": _num(worst), "margin_wh": _num(margin),
-                             "reserve": reserve, "usable_wh": usable, "holds": worst <= usable}
-        if d.energy is None:
-            failures.append("--battery: no task library declares the power of any behaviour "
-                            "('behaviour NAME ... power N W;')")
-        elif worst > usable:
-            what = (f"the {reserve:.0%} reserve ({battery_wh - usable:g} Wh)" if reserve
-                    else "the battery")
-            failures.append(f"battery {battery_wh:g} Wh: the worst case {_wh(worst)} eats "
-                            f"into {what}")
-        else:
-            lines.append(f"  battery {battery_wh:g} Wh: margin {_wh(margin)}"
-                         + (f", reserve {reserve:.0%} kept" if reserve else ""))
-    if not math.isfinite(d.worst):
-        lines.append("  unbounded by:")
-        lines += [f"    line {s.line}: {s.text} {s.ending}" for s in d.unbounded[:1]]
-        if d.loops:
-            lines.append("  loops that can go round for ever (unless a race bounds them):")
-            lines += [f"    line {s.line}: {s.text}" for s in d.loops]
-    if failures:
-        lines += ["  critical path (worst case):"] + d.path_text("    ")
-    report["failures"] = failures
-    return Verdict(failures, lines, report)
-
-
-def _wh(x: float) -> str:
-    return f"{x:.4g} Wh" if math.isfinite(x) else "unbounded"
-
-
-@dataclass(frozen=True)
-class Limits:
-    """``mclc --deadline/--battery/--reserve``, parsed (None: not asked)."""
-
-    deadline: float | None = None
-    battery_wh: float | None = None
-    reserve: float | None = None
-
-    @property
-    def asked(self) -> bool:
-        return any(x is not None for x in (self.deadline, self.battery_wh, self.reserve))
-
-
-def parse_limits(deadline: str | None, battery: str | None, reserve: str | None) -> Limits:
-    """The three options; ValueError with one clear line for a bad value."""
-    if reserve is not None and battery is None:
-        raise ValueError(f"--reserve {reserve!r} needs --battery WH (the reserve is a share "
-                         "of it), e.g. --battery 800Wh --reserve 20%")
-    return Limits(None if deadline is None else parse_deadline(deadline),
-                  None if battery is None else parse_battery(battery),
-                  None if reserve is None else parse_reserve(reserve))
-
-
-def check(checked: Checked, limits: Limits) -> Verdict:
-    """What mclc calls: the bounds of the checked mission against the limits asked."""
-    return judge(analyse(checked), limits.deadline, limits.battery_wh, limits.reserve)

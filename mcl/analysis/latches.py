@@ -6,8 +6,9 @@ values each behaviour may have (per behaviour, not jointly). The analysis over-a
 every latch state that the compiled net can reach at a point is in the set for that point
 (a state it lists may never occur).
 
-Two users: :mod:`mcl.analysis.structural` decides latch properties from it without building the state
-space, and :mod:`mcl.compiler` generates, for each latching or unlatching call, only the
+Two users: :mod:`mcl.analysis.clashes` decides latch properties from it without building the
+state space (overriding the hooks :meth:`Flow.can_end` and :meth:`Flow.race_won` to be finer),
+and :mod:`mcl.compiler` generates, for each latching or unlatching call, only the
 transitions for the states its latch may be in when the call runs, and for each block's abort
 cleanup only the states that may hold while the block runs: the net then grows linearly with
 the number of latching calls instead of with its square.
@@ -24,6 +25,8 @@ if TYPE_CHECKING:
     from mcl.checker import Checked
 
 OFF = "off"
+OK, FAIL = "ok", "fail"
+ENDINGS = frozenset({OK, FAIL})
 
 State = frozenset[tuple[str, str]]  # (behaviour, "off" | call site "line:col")
 
@@ -100,6 +103,21 @@ class Flow:
         """Called at each latching call with the states just after it (a hook for checks,
         e.g. two latched behaviours sharing a degree of freedom on together)."""
 
+    # -- hooks a finer analysis overrides (mcl/analysis/clashes.py) ---------------------------
+    def can_end(self, block: ast.Block) -> frozenset[str]:
+        """The endings ("ok", "fail") ``block`` may reach from its start: here both, always
+        (the compiler's pruning needs nothing finer)."""
+        return ENDINGS
+
+    def race_won(self, blocks: list[ast.Block], ends: list[State], winner: int) -> State:
+        """The states just after ``blocks[winner]`` ended first in a race (PARALLEL OR, or
+        TRY against CATCH) and the others were aborted: each other one is cleaned up if it
+        was still running, or is as it ended if it had just ended (a late abort).
+        ``ends``: each block's end states, seeing what the others create meanwhile."""
+        others: set[tuple[str, str]] = set().union(
+            *(self.sites(b) for j, b in enumerate(blocks) if j != winner))
+        return ends[winner] | self.cleanup(ends[winner], others)
+
     def flow(self, block: ast.Block, s: State, rely: State = frozenset()
              ) -> tuple[State, State]:
         """(states at the block's normal end, states at any moment during it). ``rely``:
@@ -111,7 +129,8 @@ class Flow:
             # cleanups leave (off), what concurrent blocks create meanwhile
             seen = during | end | self.created(block) | rely
             self.at_block[key] = self.at_block.get(key, frozenset()) | seen
-        return end, during
+        # a block that can never end has no end states
+        return (end if self.can_end(block) else frozenset()), during
 
     def _flow(self, block: ast.Block, s: State, rely: State) -> tuple[State, State]:
         match block:
@@ -132,39 +151,47 @@ class Flow:
                 return s, frozenset(during_)
             case ast.IfThenElse(condition=c, then=a, else_=e):
                 ec, dc = self.flow(c, s, rely)
-                ea, da = self.flow(a, ec, rely)
-                eb, db = self.flow(e, ec, rely) if e is not None else (ec, ec)
+                can = self.can_end(c)  # only the branches the condition's endings take
+                ea, da = self.flow(a, ec, rely) if OK in can else (frozenset(), ec)
+                if FAIL not in can:
+                    eb, db = frozenset[tuple[str, str]](), ec
+                else:
+                    eb, db = self.flow(e, ec, rely) if e is not None else (ec, ec)
                 return ea | eb, dc | da | db
             case ast.WhileDo(condition=c, body=body):
-                head, end, during = s, frozenset(), s
-                for _ in range(1000):  # a finite lattice: this converges in a few rounds
-                    ec, dc = self.flow(c, head, rely)
-                    eb, db = self.flow(body, ec, rely)
-                    end, during = end | ec | eb, during | dc | db
-                    if eb <= head:
-                        break
-                    head = head | eb
-                return end, during
+                return self._while(c, body, s, rely)
             case ast.ParallelAnd(branches=bs) | ast.ParallelOr(branches=bs):
                 ends, during = self._concurrent(list(bs), s, rely)
                 if isinstance(block, ast.ParallelOr):
-                    first_ends: State = frozenset()
-                    for i in range(len(bs)):
-                        # the others are aborted: cleaned up if still running, as they ended
-                        # if they had just ended (a late abort)
-                        others: set[tuple[str, str]] = set().union(
-                            *(self.sites(b) for j, b in enumerate(bs) if j != i))
-                        first_ends |= ends[i] | self.cleanup(ends[i], others)
+                    first_ends: State = frozenset().union(
+                        *(self.race_won(list(bs), ends, i) for i in range(len(bs))))
                     return first_ends, during
                 return self._last_writers(list(bs), ends, s), during
             case ast.TryCatchDo(try_=t, catch=c, do=d):
                 ends, during = self._concurrent([t, c], s, rely)
-                # whichever is aborted is cleaned up if it was running, or is as it ended
-                try_first = ends[0] | self.cleanup(ends[0], self.sites(c))
+                # TRY ended first: CATCH aborted; CATCH ended first: TRY aborted, DO runs
+                try_first = self.race_won([t, c], ends, 0)
                 at_do = self.cleanup(during, self.sites(t)) | ends[0]
                 ed, dd = self.flow(d, at_do, rely)
                 return try_first | ed, during | dd
         raise TypeError(block)
+
+    def _while(self, c: ast.Block, body: ast.Block, s: State, rely: State
+               ) -> tuple[State, State]:
+        """A WHILE: rounds until the states at the head no longer grow; it ends where its
+        condition fails or its body fails (as far as :meth:`can_end` allows)."""
+        head, end, during = s, frozenset[tuple[str, str]](), s
+        can_c, can_b = self.can_end(c), self.can_end(body)
+        for _ in range(1000):  # a finite lattice: this converges in a few rounds
+            ec, dc = self.flow(c, head, rely)
+            eb, db = self.flow(body, ec, rely) if OK in can_c else (frozenset(), ec)
+            end |= (ec if FAIL in can_c else frozenset()) | (
+                eb if FAIL in can_b else frozenset())
+            during = during | dc | db
+            if eb <= head:
+                break
+            head = head | eb
+        return end, during
 
     def _concurrent(self, blocks: list[ast.Block], s: State, rely: State
                     ) -> tuple[list[State], State]:

@@ -1,10 +1,11 @@
 """Choosing how to verify a compiled mission: explicit, structural, or auto.
 
-* ``explicit`` (petri/verification/properties.py): every reachable marking, exact, with counterexamples; stops at
-  a limit of markings (derived from the memory budget too) and then says undecided for what
-  the part it saw cannot decide.
-* ``structural`` (mcl/analysis/structural.py): templates verified with generic children, outcomes and
-  behaviours decided on the syntax tree; never enumerates the mission's state space.
+* ``explicit`` (petri/verification/properties.py): every reachable marking, exact, with
+  counterexamples; stops at a limit of markings (derived from the memory budget too) and then
+  says undecided for what the part it saw cannot decide.
+* ``structural`` (mcl/analysis/structural.py): templates verified with generic children,
+  outcomes and behaviours decided on the syntax tree; never enumerates the mission's state
+  space.
 * ``auto``: estimates the explicit route's memory (estimated markings × bytes per marking,
   plus the net itself) against the budget; under it, runs the explicit route with a marking
   limit that keeps it under the budget, and if that exploration is cut, completes the verdict
@@ -18,11 +19,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from petri.verification.properties import Result, Verdict, undecided
+from petri.net import Net
+from petri.verification.properties import Result, Verdict, actions_match, undecided, verify
+
+from mcl.analysis import structural
 
 if TYPE_CHECKING:
-    from petri.net import Net
-
     from mcl.api import Compiled
 
 METHODS = ("auto", "explicit", "structural")
@@ -47,12 +49,9 @@ def explicit_cost(net: Net, markings: float) -> float:
 
 
 def net_bytes(net: Net) -> float:
-    """Bytes of the net itself as the explicit route holds it: its arcs, a few words each,
-    and, where the net still offers them (``Net.pre``), the dense place × transition input
-    and output matrices (64-bit) the exploration builds."""
-    places, transitions = len(net.places), len(net.transitions)
-    dense = 16.0 * places * transitions if hasattr(net, "pre") else 0.0
-    return 64.0 * (net.arc_count() + places + transitions) + dense
+    """Bytes of the net itself as the explicit route holds it: its arcs, places and
+    transitions, a few words each."""
+    return 64.0 * (net.arc_count() + len(net.places) + len(net.transitions))
 
 
 def marking_limit(net: Net, max_markings: int, max_bytes: int) -> int:
@@ -63,43 +62,39 @@ def marking_limit(net: Net, max_markings: int, max_bytes: int) -> int:
 
 
 def verify_mission(compiled: Compiled, method: str = "auto", max_markings: int = MAX_MARKINGS,
-                   max_bytes: int = MAX_BYTES) -> Verdict:
-    """Verify a compiled mission by ``method`` ("auto", "explicit" or "structural")."""
-    from petri.verification.properties import verify
-
-    from mcl.analysis.structural import analyse, mission_estimate
-
+                   max_bytes: int = MAX_BYTES, keep_graph: bool = False) -> Verdict:
+    """Verify a compiled mission by ``method`` ("auto", "explicit" or "structural");
+    ``keep_graph``: the verdict keeps the explicit route's graph (``Verdict.space``)."""
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}: one of {', '.join(METHODS)}")
     net = compiled.net
     if method == "structural":
-        return analyse(compiled.checked, net)
+        return structural.analyse(compiled.checked, net)
     limit = marking_limit(net, max_markings, max_bytes)
     if method == "explicit":
         if limit < 1:
             return _too_big(net, max_bytes)
-        return verify(net, max_markings=limit)
-    estimate = mission_estimate(compiled.checked)
+        return verify(net, max_markings=limit, keep_graph=keep_graph)
+    estimate = structural.mission_estimate(compiled.checked)
     budget = f"{max_bytes / 2**20:,.0f} MiB"
     if limit < 1 or explicit_cost(net, estimate) > max_bytes or estimate > limit:
         why = (f"auto: about {estimate:,.0f} markings estimated, over the explicit route's "
                f"budget of {limit:,} markings ({budget})")
-        return analyse(compiled.checked, net, note=why)
-    explicit = verify(net, max_markings=limit)
-    if not any(r.undecided or (r.name == "complete" and not r.holds)
-               for r in explicit.results if r.severity == "error"):
+        return structural.analyse(compiled.checked, net, note=why)
+    explicit = verify(net, max_markings=limit, keep_graph=keep_graph)
+    if not any(r.undecided for r in explicit.results if r.severity == "error"):
         return explicit
     cut = explicit.markings >= limit
     why = (f"auto: the explicit route stopped at {explicit.markings:,} markings "
            f"(limit {limit:,}, {budget})" if cut else "auto: undecided by the explicit route")
-    return merge(explicit, analyse(compiled.checked, net, note=why), cut)
+    return merge(explicit, structural.analyse(compiled.checked, net, note=why), cut)
 
 
 def merge(explicit: Verdict, structural: Verdict, cut: bool = True) -> Verdict:
     """One verdict from the explicit route and the structural route: per property, what the
     explicit route established — a violation it saw is real even in a cut exploration, but a
     cut exploration proves nothing holds — else the structural route's result."""
-    seen = {r.name: r for r in explicit.results if r.name != "complete"}
+    seen = {r.name: r for r in explicit.results}
     out = Verdict(explicit.net, explicit.markings, explicit.arcs,
                   explicit.seconds + structural.seconds)
     out.witnesses = explicit.witnesses
@@ -126,9 +121,7 @@ def _too_big(net: Net, max_bytes: int) -> Verdict:
                  "behaviours-off-at-end", "behaviour-single-owner", "dof-exclusive",
                  "no-disable-while-held", "stop-safe"):
         verdict.results.append(undecided(name, why, "explicit (not run)"))
-    from petri.verification.properties import _actions_match
-
-    verdict.results.append(_actions_match(net))
+    verdict.results.append(actions_match(net))
     verdict.results.append(Result("no-dead-transitions", False, "warning", why,
                                   "explicit (not run)", undecided=True))
     return verdict

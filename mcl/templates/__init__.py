@@ -1,1 +1,1 @@
-"""One Petri-net template per MCL construct (MCL.md §5), each in a module of its own."""
+"""One Petri-net template per MCL construct (docs/DESIGN.md §5), each in a module of its own."""

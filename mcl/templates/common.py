@@ -1,8 +1,8 @@
 """What every template shares: the block interface, absorbing an abort, switching latches off.
 
 Every block compiles to a subnet with the input places ``begin`` and ``abort`` and the output
-places ``ok``, ``fail`` and ``aborted`` (MCL.md §5). One token in ``begin`` leads to exactly one
-token in ``ok``, ``fail`` or ``aborted``, and the subnet is then empty again.
+places ``ok``, ``fail`` and ``aborted`` (docs/DESIGN.md §5). One token in ``begin`` leads to
+exactly one token in ``ok``, ``fail`` or ``aborted``, and the subnet is then empty again.
 
 Why ``aborted`` is a place of its own: a parent that aborts a child must know whether the
 child took the abort token. If the child had already ended, the token is still in the child's

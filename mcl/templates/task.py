@@ -19,7 +19,8 @@ from petri.net import POINT_FIELDS, RUN, Action
 
 from mcl import ast, printer
 from mcl.checker import Resolved
-from mcl.tasklib import ActionSpec, Expr, Field
+from mcl.declarations import ActionSpec, Expr, Field
+from mcl.timers import timers
 from mcl.values import Unresolved, evaluate
 from mcl.templates.common import Context, Interface
 
@@ -55,18 +56,12 @@ def build(ctx: Context, call: ast.Call) -> Interface:
     for event in form.fail:
         ctx.transition(f"{name}.fail.{event}", [run], [io.fail], f"{event} → fail", origin,
                        actions=stop, event=event)
-    timeouts: list[tuple[Expr, str]] = []
-    if resolved.timeout is not None:  # a per-call timeout replaces a declared fail timeout
-        timeouts.append((resolved.timeout, "fail"))
-        if form.timeout is not None and form.timeout[1] == "ok":
-            timeouts.append(form.timeout)
-    elif form.timeout is not None:
-        timeouts.append(form.timeout)
-    for i, (expr, status) in enumerate(timeouts):
-        seconds = _timer(ctx, expr, resolved)
+    for i, timer in enumerate(timers(ctx.checked, call)):  # the rule: mcl/timers.py
+        seconds = timer.seconds
         shown = f"{seconds:g} s" if isinstance(seconds, float) else seconds
-        ctx.transition(f"{name}.timeout{i or ''}", [run], [io.ok if status == "ok" else io.fail],
-                       f"timeout {shown} → {status}", origin, actions=stop, timer=seconds)
+        ctx.transition(f"{name}.timeout{i or ''}", [run],
+                       [io.ok if timer.status == "ok" else io.fail],
+                       f"timeout {shown} → {timer.status}", origin, actions=stop, timer=seconds)
     ctx.transition(f"{name}.abort", [run, io.abort], [io.aborted], "aborted", origin,
                    actions=stop)
     return io
@@ -74,7 +69,7 @@ def build(ctx: Context, call: ast.Call) -> Interface:
 
 def _value(ctx: Context, expr: Expr, resolved: Resolved, kind: str,
            points: dict[str, object] | None = None) -> object:
-    """An action parameter or timer: a number or list, or {"param": name} when the mission
+    """An action parameter: a number or list, or {"param": name} when the mission
     parameter it comes from has no value yet (the player fills it in at run time).
     ``points``: the call's point arguments already evaluated (or the missing parameter's
     name, as an Unresolved), by formal."""
@@ -109,10 +104,3 @@ def _action(ctx: Context, spec: ActionSpec, resolved: Resolved,
                    for key, expr in spec.bindings)
     return Action(spec.kind, spec.behaviour, params)
 
-
-def _timer(ctx: Context, expr: Expr, resolved: Resolved) -> float | str:
-    value = _value(ctx, expr, resolved, "duration")
-    if isinstance(value, dict):
-        return str(value["param"])
-    assert isinstance(value, float | int)
-    return float(value)

@@ -72,7 +72,7 @@ def test_round_trip(path: Path) -> None:
 
 
 def test_dam_mission_is_algorithm_1_of_the_paper() -> None:
-    """MCL.md §1: the paper's mission, as written, with its parameters."""
+    """docs/DESIGN.md §1: the paper's mission, as written, with its parameters."""
     m = parser.parse_file(str(MISSIONS / "dam_inspection.mcl"))
     assert [c.name for c in ast.calls(m.body)] == [
         "StartLogs", "GoTo", "AchieveHeadDist", "KeepHeadDist", "StartCamera", "WallInspect",
@@ -87,7 +87,7 @@ def test_dam_mission_is_algorithm_1_of_the_paper() -> None:
 
 
 def test_the_algorithm_as_printed_in_MCL_md_compiles_with_warnings(tmp_path: Path) -> None:
-    """Without PARAM values, only warnings (MCL.md §1: a warning when only checking)."""
+    """Without PARAM values, only warnings (docs/DESIGN.md §1: a warning when only checking)."""
     text = (MISSIONS / "dam_inspection.mcl").read_text("utf-8")
     body = text[text.index("MISSION"):]
     path = tmp_path / "algorithm1.mcl"

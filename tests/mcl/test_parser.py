@@ -203,8 +203,6 @@ def test_other_errors_at_their_place(text: str, code: str, where: str, words: st
     assert words in d.message
 
 
-@pytest.mark.xfail(strict=True, reason="KNOWN_MISTAKES lists a missing ';' only after the "
-                   "first item of a block: after a later item it reads as a TRY's missing '}'")
 @pytest.mark.parametrize("text,where", [
     ("MISSION { A(); B() C() }", "1:19"),
     ("MISSION { A(); B(); C() D() }", "1:24"),

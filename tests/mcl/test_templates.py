@@ -1,4 +1,4 @@
-"""Each template verified on its own (MCL.md §5), and mutations of templates caught.
+"""Each template verified on its own (docs/DESIGN.md §5), and mutations of templates caught.
 
 The children are generic blocks (tests.support.GENERIC_TASKS): A(), B(), C(), D() may end
 ok, end fail, or be aborted at any moment; Now() ends at once (so any abort reaching it is a
@@ -173,7 +173,7 @@ def test_two_behaviours_on_the_same_degree_of_freedom_are_reported() -> None:
 
 
 def test_an_abort_switches_a_latched_behaviour_off() -> None:
-    """MCL.md: without this rule the paper's mission would surface after an alarm with
+    """docs/DESIGN.md §6: without this rule the paper's mission would surface after an alarm with
     AchieveHeadDist still holding the wall distance."""
     compiled = compile_text("TRY { Lamp(enable); A(); Lamp(disable) } CATCH { B() } DO { C() }")
     net = compiled.net

@@ -26,7 +26,9 @@ from hypothesis import strategies as st
 
 from mcl import ast, printer, tasklib
 from mcl.api import compile_file, compile_source
-from mcl.analysis.duration import Durations, analyse, judge, parse_battery, parse_deadline, parse_reserve
+from app.reports.duration import judge
+from mcl.analysis.duration import Durations, analyse
+from mcl.quantities import parse_battery, parse_deadline, parse_reserve
 from diagnostics import Source
 from petri.net import Net
 from petri.execution.player import Player, Record
