@@ -5,8 +5,9 @@
 
 A ``.tgz`` is a Model Checking Contest archive; its ``*/model.pnml`` is read. The report (how
 many markings and arcs, bounds, deadlocks, dead transitions, 1-safety) is
-:func:`petri.verification.pnml_report.analyse`'s. Exit status: 0 reported, 1 the net could not be read or
-the method could not decide it. (``mclc FILE.pnml`` gives the same report with mclc's statuses.)
+:func:`petri.verification.pnml_report.analyse`'s. Its exit statuses (reported; a file that is not a
+P/T net: invalid input; a method that cannot decide it: no verdict), the same as ``mclc
+FILE.pnml``'s: docs/EXIT.md.
 """
 
 from __future__ import annotations
@@ -15,9 +16,11 @@ import argparse
 import json
 import sys
 
-from petri.verification import symbolic
+from app.reports.pnml import pnml_text
+from mission.exits import Exit
 from petri.formats.pnml import PnmlError
-from petri.verification.pnml_report import analyse, format_report, load_net
+from petri.verification import symbolic
+from petri.verification.pnml_report import analyse, load_net
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -33,12 +36,12 @@ def main(argv: list[str] | None = None) -> int:
         report = analyse(net, method=args.method, max_markings=args.max_markings)
     except PnmlError as exc:
         print(exc, file=sys.stderr)
-        return 1
+        return Exit.INVALID
     except (ValueError, symbolic.NotOneSafe, symbolic.SymbolicLimit) as exc:  # --method symbolic
         print(f"{args.model}: error: {exc}", file=sys.stderr)
-        return 1
-    print(json.dumps(report, indent=2) if args.json else format_report(report))
-    return 0
+        return Exit.UNDECIDED
+    print(json.dumps(report, indent=2) if args.json else pnml_text(report))
+    return Exit.OK
 
 
 if __name__ == "__main__":

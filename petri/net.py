@@ -35,7 +35,7 @@ class Origin:
 
 @dataclass(frozen=True)
 class Action:
-    """An order to the vehicle: enable, disable or configure one behaviour (AAL.md)."""
+    """An order to the vehicle: enable, disable or configure one behaviour (docs/AAL.md)."""
 
     kind: str  # "enable" | "disable" | "configure"
     behaviour: str

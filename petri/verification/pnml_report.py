@@ -6,12 +6,12 @@ Command line (``app/pnml_report.py``)::
 
     python -m app.pnml_report MODEL.pnml|MODEL.tgz [--json] [--method auto|explicit|symbolic]
 
-A ``.tgz`` is a Model Checking Contest archive; its ``*/model.pnml`` is read.
+A ``.tgz`` is a Model Checking Contest archive; its ``*/model.pnml`` is read. The text of the
+report is :mod:`app.reports.pnml`'s.
 """
 
 from __future__ import annotations
 
-import sys
 import tarfile
 import tempfile
 import time
@@ -48,31 +48,46 @@ def analyse(net: Net, method: str = "auto", max_markings: int = 20_000_000,
     ``method="symbolic"`` raises :class:`petri.verification.symbolic.NotOneSafe` for a net that is not
     1-safe and :class:`petri.verification.symbolic.SymbolicLimit` after ``symbolic_seconds``.
     """
+    return analyse_graph(net, method, max_markings, max_tokens, probe, symbolic_seconds,
+                         arcs=False)[0]
+
+
+def analyse_graph(net: Net, method: str = "auto", max_markings: int = 20_000_000,
+                  max_tokens: int = 255, probe: int = EXPLICIT_PROBE,
+                  symbolic_seconds: float = SYMBOLIC_SECONDS, arcs: bool = True
+                  ) -> tuple[Report, rg.StateSpace | None]:
+    """:func:`analyse`'s report and the explicit reachability graph it was made from, with
+    its arcs (``arcs=True``) for :func:`petri.verification.reachability.as_digraph`; None
+    when the symbolic search made the report."""
     if method not in ("auto", "explicit", "symbolic"):
         raise ValueError(f"unknown method {method!r}")
     start = time.perf_counter()
+    space: rg.StateSpace | None = None
     if method == "symbolic":
         report = symbolic_report(net, symbolic.explore(net, time_limit=symbolic_seconds))
     elif method == "explicit":
-        report = explicit_report(net, rg.explore(net, max_markings, max_tokens, arcs=False))
+        space = rg.explore(net, max_markings, max_tokens, arcs=arcs)
+        report = explicit_report(net, space)
     else:
-        report = _auto(net, max_markings, max_tokens, probe, symbolic_seconds)
+        report, space = _auto(net, max_markings, max_tokens, probe, symbolic_seconds, arcs)
     report["seconds"] = round(time.perf_counter() - start, 3)
-    return report
+    return report, space
 
 
 def _auto(net: Net, max_markings: int, max_tokens: int, probe: int,
-          symbolic_seconds: float) -> Report:
+          symbolic_seconds: float, arcs: bool) -> tuple[Report, rg.StateSpace | None]:
     if symbolic.available() and symbolic.is_candidate(net) and probe < max_markings:
-        ss = rg.explore(net, max_markings=probe, max_tokens=max_tokens, arcs=False)
+        ss = rg.explore(net, max_markings=probe, max_tokens=max_tokens, arcs=arcs)
         if ss.complete:
-            return explicit_report(net, ss)
+            return explicit_report(net, ss), ss
         if rg.max_tokens(ss) <= 1:
             try:
-                return symbolic_report(net, symbolic.explore(net, time_limit=symbolic_seconds))
+                result = symbolic.explore(net, time_limit=symbolic_seconds)
+                return symbolic_report(net, result), None
             except (symbolic.NotOneSafe, symbolic.SymbolicLimit):
                 pass  # explicit after all
-    return explicit_report(net, rg.explore(net, max_markings, max_tokens, arcs=False))
+    ss = rg.explore(net, max_markings, max_tokens, arcs=arcs)
+    return explicit_report(net, ss), ss
 
 
 def _header(net: Net) -> Report:
@@ -132,43 +147,3 @@ def load_net(path: str | Path, workdir: str | Path | None = None) -> Net:
             raise PnmlError("the archive holds no */model.pnml", str(path))
         archive.extract(members[0], tmp, filter="data")
         return read_pnml(Path(tmp) / members[0].name)
-
-
-def format_report(report: Report) -> str:
-    def show(value: Any) -> str:
-        if value is None:
-            return "unknown"
-        if isinstance(value, bool):
-            return "yes" if value else "no"
-        if isinstance(value, list):
-            return ", ".join(value) if value else "none"
-        return f"{value:,}" if isinstance(value, int) else str(value)
-
-    keys = ["net", "places", "transitions", "method", "complete", "markings", "arcs",
-            "max_tokens", "one_safe", "deadlock_reachable", "dead_transitions",
-            "stop_reason", "unbounded_place", "bdd_nodes", "seconds"]
-    width = max(len(k) for k in keys)
-    return "\n".join(f"{k.replace('_', ' '):<{width}}  {show(report[k])}"
-                     for k in keys if k in report)
-
-
-EXIT_OK, EXIT_INVALID = 0, 2  # as mclc's exit statuses
-
-
-def report_file(path: str, fmt: str = "text") -> tuple[int, Report]:
-    """``mclc FILE.pnml``: analyse one PNML file; print the text report when fmt is "text".
-
-    Returns (exit status, JSON report with "file" and "status": "analysed" or "invalid").
-    """
-    try:
-        net = load_net(path)
-    except PnmlError as exc:
-        print(exc, file=sys.stderr)
-        return EXIT_INVALID, {"file": path, "status": "invalid", "diagnostics": [
-            {"severity": "error", "message": exc.message, "hint": None, "code": "pnml",
-             "file": exc.path or path, "line": exc.line, "col": exc.col}]}
-    report = {"file": path, "status": "analysed", **analyse(net)}
-    if fmt == "text":
-        print(f"{path}:")
-        print(format_report(report))
-    return EXIT_OK, report

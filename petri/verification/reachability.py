@@ -20,11 +20,15 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
-from petri.net import Net, triggers
+from petri.net import END_FAIL, END_OK, Net, triggers
+
+if TYPE_CHECKING:
+    import networkx as nx
 
 IntArray = npt.NDArray[np.integer]
 
@@ -67,6 +71,10 @@ class StateSpace:
         if self.degree is not None:
             return int(self.degree.sum())
         return int(self.src.shape[0])
+
+    def to_networkx(self, net: Net) -> nx.MultiDiGraph:
+        """This graph as networkx's: see :func:`as_digraph`."""
+        return as_digraph(net, self)
 
 
 @dataclass(frozen=True)
@@ -325,3 +333,38 @@ def marking_of(net: Net, ss: StateSpace, index: int) -> dict[int, int]:
     """Row ``index`` as a {place: tokens} dict (non-zero entries only)."""
     row = ss.markings[index]
     return {int(p): int(row[p]) for p in np.flatnonzero(row)}
+
+
+def as_digraph(net: Net, ss: StateSpace) -> nx.MultiDiGraph:
+    """The reachability graph as a networkx ``MultiDiGraph`` (a ``DiGraph`` whose two
+    markings may be joined by several firings), for networkx's algorithms and writers.
+
+    Node i is marking row i (0 the initial marking) with the attributes ``marking`` (the
+    marked places: ``{a, b×2}``), ``initial`` (bool) and ``end`` ("ok" or "fail" when the
+    net's ok or fail place is marked, else ""). Each firing is an edge keyed by its
+    transition index, with ``transition`` (that index), ``name``, ``label`` and, for a net
+    compiled from MCL, ``line`` (the source line). The graph's own attributes: ``net``,
+    ``complete`` and, when a limit cut the exploration, ``stop_reason`` (then the markings
+    past the last one expanded have no edges out). A state space explored without its arcs
+    (``explore(..., arcs=False)``) has none to give: ValueError.
+    """
+    import networkx as nx  # lazily: importing networkx costs start-up time most runs never use
+
+    if ss.degree is not None and ss.n_arcs:
+        raise ValueError("the state space was explored without its arcs (arcs=False)")
+    graph = nx.MultiDiGraph(net=net.name, complete=ss.complete)
+    if ss.stop_reason:
+        graph.graph["stop_reason"] = ss.stop_reason
+    ends = {p: "ok" for p in net.places_with(END_OK)} | {
+        p: "fail" for p in net.places_with(END_FAIL)}
+    for i, row in enumerate(ss.markings):
+        end = next((status for p, status in ends.items() if row[p]), "")
+        graph.add_node(i, marking=net.describe_marking(row), initial=i == 0, end=end)
+    firing: list[dict[str, object]] = []  # the attributes of each transition's edges
+    for t, tr in enumerate(net.transitions):
+        firing.append({"transition": t, "name": tr.name, "label": tr.label})
+        if tr.origin is not None:
+            firing[t]["line"] = tr.origin.line
+    graph.add_edges_from((s, d, t, firing[t]) for s, d, t in
+                         zip(ss.src.tolist(), ss.dst.tolist(), ss.transition.tolist()))
+    return graph

@@ -272,7 +272,7 @@ def run_report(*args: str) -> subprocess.CompletedProcess[str]:
 def test_cli_reports_a_bad_file_with_its_position(tmp_path: Path) -> None:
     path = write_text(tmp_path, f"<pnml {NS}>\n<net id='n' {PT}>\n<page id='p'>\n</net>")
     proc = run_report(str(path))
-    assert proc.returncode == 1
+    assert proc.returncode == 2  # invalid input (docs/EXIT.md), as mclc FILE.pnml says it
     assert proc.stderr.strip() == f"{path}:4:3: error: invalid XML: mismatched tag"
     assert proc.stdout == ""
 

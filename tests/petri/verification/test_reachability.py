@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from petri.verification import reachability as rg
-from petri.net import Net
+from petri.net import END_FAIL, END_OK, Net
 
 ENGINES = ["numpy"] + (["numba"] if rg.default_engine() == "numba" else [])
 
@@ -418,3 +418,55 @@ def test_integer_and_set_markings_give_the_same_graph(monkeypatch: pytest.Monkey
             assert np.array_equal(np.asarray(a), np.asarray(b)), text
         degree = np.bincount(np.asarray(ints[1]), minlength=len(ints[0]))  # type: ignore[arg-type]
         assert np.array_equal(np.asarray(lean[7]), degree)
+
+
+# -- the graph as networkx's ----------------------------------------------------------------
+
+def test_as_digraph_has_a_node_per_marking_and_an_edge_per_firing() -> None:
+    from diagnostics import Source
+    from mcl.api import compile_source
+
+    net = compile_source(Source("m.mcl", "MISSION { TRY { Wait(1 s) } CATCH { Alarms() } "
+                                          "DO { Surface() } }")).net
+    ss = rg.explore(net)
+    graph = ss.to_networkx(net)
+    assert graph.is_directed() and graph.is_multigraph()
+    assert graph.number_of_nodes() == ss.n_markings
+    assert graph.number_of_edges() == ss.n_arcs
+    assert graph.graph == {"net": net.name, "complete": True}
+    for a in range(ss.n_arcs):  # each arc is there once, keyed by its transition
+        s, d, t = int(ss.src[a]), int(ss.dst[a]), int(ss.transition[a])
+        edge = graph.edges[s, d, t]
+        tr = net.transitions[t]
+        assert edge["transition"] == t and edge["name"] == tr.name
+        assert edge["label"] == tr.label
+        assert edge.get("line") == (tr.origin.line if tr.origin else None)
+    assert [m for m, initial in graph.nodes(data="initial") if initial] == [0]
+    for m, data in graph.nodes(data=True):
+        assert data["marking"] == net.describe_marking(ss.markings[m])
+        marked = {net.places[p].role for p in np.flatnonzero(ss.markings[m])}
+        assert data["end"] == ("ok" if END_OK in marked else
+                               "fail" if END_FAIL in marked else "")
+    ends = {data["end"] for _, data in graph.nodes(data=True)}
+    assert ends == {"", "ok", "fail"}
+
+
+def test_as_digraph_of_a_cut_exploration_says_so() -> None:
+    net = Net("grow")
+    p = net.add_place("p")
+    net.add_transition("more", [], [p])
+    ss = rg.explore(net, max_markings=5)
+    graph = rg.as_digraph(net, ss)
+    assert graph.graph["complete"] is False and graph.graph["stop_reason"] == ss.stop_reason
+    assert graph.number_of_nodes() == 5
+    assert [graph.nodes[m]["marking"] for m in range(3)] == ["{}", "{p}", "{p×2}"]
+    assert all("line" not in data for _, _, data in graph.edges(data=True))  # no source
+
+
+def test_as_digraph_needs_the_arcs() -> None:
+    net = Net("line")
+    a, b = net.add_place("a"), net.add_place("b")
+    net.add_transition("t", [a], [b])
+    net.initial = {a: 1}
+    with pytest.raises(ValueError, match="without its arcs"):
+        rg.as_digraph(net, rg.explore(net, arcs=False))

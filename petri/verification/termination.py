@@ -1,0 +1,103 @@
+"""The properties about ending: ``terminates``, ``no-zeno`` and ``stop-safe``.
+
+A violation of the first two is a loop: a *lasso*, the shortest firing sequence to a marking
+on the loop, then the loop (:func:`petri.verification.graph.lasso`). ``terminates`` is decided
+on the main model (no external stop); ``stop-safe`` on the stop region, reached by one.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from petri.net import Net
+from petri.verification.graph import Adjacency, ReachabilityGraph, lasso
+from petri.verification.reachability import shortest_path
+from petri.verification.verdict import Result, nearest, undecided
+
+
+def terminates(g: ReachabilityGraph, how: str, cut: str) -> Result:
+    """Main model: from every reachable marking an end can be reached."""
+    name = "terminates"
+    if cut:
+        return undecided(name, cut, how)
+    can_end = g.main_arcs.reach(np.flatnonzero(g.terminal & g.main), backward=True,
+                                within=g.main)
+    bad = g.main & ~can_end
+    if not bad.any():
+        return Result(name, True, "error", "from every reachable marking the mission ends "
+                      "by itself (no external stop needed)", how + ", backward search")
+    main = ~g.stop_arc
+    loop = lasso(g.ss, g.main_arcs, bad, g.ss.src[main], g.ss.dst[main], g.main_arcs)
+    if loop is None:  # every marking that cannot end is stuck: no-deadlock says where
+        first = int(np.flatnonzero(bad).min())
+        return Result(name, False, "error", "the mission can get stuck before it ends",
+                      how, shortest_path(g.ss, np.array([first])), first)
+    at, prefix, cycle = loop
+    return Result(name, False, "error", why_endless(g.net, cycle), how, prefix, at,
+                  cycle=cycle)
+
+
+def why_endless(net: Net, cycle: list[int]) -> str:
+    """Why a loop of the main model never ends, in the mission's words."""
+    loops = [o for o in (net.transitions[t].origin for t in cycle)
+             if o is not None and o.kind == "WHILE"]
+    if loops:
+        o = loops[0]
+        cond = o.text.removeprefix("WHILE").strip().removeprefix("{").removesuffix("}")
+        return (f"the WHILE at line {o.line} cannot end: its condition `{cond.strip()}` can "
+                "never fail and its body never fails, so it goes round for ever")
+    return "the mission can go round for ever without ending (no external stop)"
+
+
+def no_zeno(g: ReachabilityGraph, how: str, cut: str) -> Result:
+    """A loop of zero-time firings. A timer whose parameter has no value yet may be 0 s: a
+    loop that needs one is undecided (it depends on the value), not a violation."""
+    name = "no-zeno"
+    for arcs, certain in ((g.zero_arc, True), (g.maybe_zero_arc, False)):
+        loop = zero_lasso(g, arcs) if arcs.any() else None
+        if loop is None:
+            continue
+        at, prefix, cycle = loop
+        lines = [o.line for o in (g.net.transitions[t].origin for t in cycle)
+                 if o is not None and o.kind == "WHILE"]
+        where = f"the WHILE at line {lines[0]}" if lines else "a loop"
+        if not certain:
+            params = sorted({str(g.net.transitions[t].timer) for t in cycle
+                             if isinstance(g.net.transitions[t].timer, str)})
+            return undecided(name, f"{where} goes round without time passing if the timer "
+                             f"parameter {', '.join(params)} is 0 s: give it a value", how)
+        return Result(name, False, "error", f"{where} can go round without time passing "
+                      "(instant tasks and 0 s timers only): the player would spin; make each "
+                      "round wait for an event or a timer > 0", how, prefix, at, cycle=cycle)
+    if cut:
+        return undecided(name, cut, how)
+    return Result(name, True, "error", "no loop can go round without time passing", how)
+
+
+def zero_lasso(g: ReachabilityGraph, zero: npt.NDArray[np.bool_]
+               ) -> tuple[int, list[int], list[int]] | None:
+    """A loop of the arcs marked in ``zero`` (one entry per arc), as :func:`lasso`."""
+    bad = np.zeros(g.n, bool)
+    bad[g.ss.src[zero]] = True
+    adj = Adjacency(g.n, g.ss.src[zero], g.ss.dst[zero], np.flatnonzero(zero))
+    return lasso(g.ss, adj, bad, g.ss.src[zero], g.ss.dst[zero], g.all_arcs)
+
+
+def stop_safe(g: ReachabilityGraph, how: str, cut: str) -> Result:
+    """The external stop: from wherever it comes, the mission then ends with nothing on."""
+    name = "stop-safe"
+    if cut:
+        return undecided(name, cut, how)
+    if not g.stop_arc.any():
+        return Result(name, True, "error", "the mission has no external stop to check", how)
+    can_end = g.all_arcs.reach(np.flatnonzero(g.terminal & g.stopped), backward=True,
+                               within=g.stopped)
+    bad = np.flatnonzero(g.stopped & ~can_end)
+    if len(bad):
+        return nearest(g.ss, name, bad, "", "after an external stop the mission can fail to "
+                       "end", how + ", stop region")
+    return Result(name, True, "error", "an external stop (operator, uncaught Link.lost, a "
+                  "limit) from any reachable marking ends the mission with every behaviour "
+                  "off", how + ", stop region")
+
