@@ -42,6 +42,11 @@ class Perception:
     pressure: float = 1.0  # bar inside the pressure vessels
     line: Any = None  # behaviours.seabed.LineView: the seabed line as the running tracker
     # sees it (FollowPipeline, FollowCable, SearchLine); None when none runs
+    wall_point: tuple[float, float] | None = None  # (x, y) of the wall's foot, last seen (a
+    # vehicle that reports the wall as a distance sensor: ArduSub's DISTANCE_SENSOR)
+    wall_seen_at: float = -math.inf  # s, when the wall was last seen (with wall_point)
+    alarms: frozenset[str] = frozenset()  # the alarms the vehicle's own autopilot reported
+    # ("leak", "overtemperature", "overpressure": ArduSub's STATUSTEXTs)
 
 
 @dataclass
@@ -60,13 +65,26 @@ class Behaviour:
     """One behaviour, one lifecycle (``initialise`` -> ``update``... -> ``terminate``), on every
     vehicle. A class declares what the registry (behaviours/registry.py) lists: its ``name``,
     the degrees of freedom it ``drives``, the ``parameters`` it takes, the ``events`` it raises and
-    its ``priority`` in the coordinator (higher wins an overlap; 0: ranked last)."""
+    its ``priority`` in the coordinator (higher wins an overlap; 0: ranked last).
+
+    What a vehicle reads of the class, never of a list of names: a behaviour that ``drives`` a
+    degree of freedom moves the vehicle (a disarmed vehicle stops it); ``switches`` names a
+    device of the vehicle that runs while it is enabled ("camera", "logs"); ``tracker`` the
+    seabed vision's line tracker it needs ("pipeline", "cable", "search"); ``surveys`` says it
+    is the wall survey (its ``path`` is the plan the run's figures and the mosaic are measured
+    against). Two control laws: :meth:`on_update` answers velocity demands (a vehicle whose
+    controller takes velocities, the simulated Ictineu); :meth:`on_setpoints`, when the class
+    has one, position setpoints (a vehicle whose autopilot holds positions, ArduSub in GUIDED:
+    the MAVLink adapter offers exactly the registered behaviours that have it)."""
 
     name: ClassVar[str] = ""
     drives: ClassVar[tuple[str, ...]] = ()
     events: ClassVar[tuple[str, ...]] = ()
     parameters: ClassVar[tuple[str, ...]] = ()
     priority: ClassVar[int] = 0
+    switches: ClassVar[str] = ""
+    tracker: ClassVar[str] = ""
+    surveys: ClassVar[bool] = False
 
     def __init__(self) -> None:
         self.active = False
@@ -102,15 +120,33 @@ class Behaviour:
         """One tick: the response; events go to ``raised`` (collected by the vehicle loop)."""
         return self.on_update(p) if self.active else Response()
 
+    def update_setpoints(self, p: Perception) -> Response:
+        """One tick on a vehicle whose autopilot holds positions: the response of the position
+        law (:meth:`on_setpoints`); events go to ``raised`` as with :meth:`update`."""
+        return self.on_setpoints(p) if self.active else Response()
+
     def terminate(self, t: float) -> None:
         self.active = False
+
+    @classmethod
+    def has_position_law(cls) -> bool:
+        """Whether the class answers position setpoints (it overrides :meth:`on_setpoints`)."""
+        return cls.on_setpoints is not Behaviour.on_setpoints
 
     # -- for subclasses -----------------------------------------------------------------------
     def on_initialise(self, t: float) -> None:
         pass
 
     def on_update(self, p: Perception) -> Response:
+        """The velocity law: velocity ``demands`` on the degrees of freedom it drives."""
         return Response()
+
+    def on_setpoints(self, p: Perception) -> Response:
+        """The position law: position ``setpoints`` (x, y, z m world frame, z down; yaw rad) on
+        the degrees of freedom it drives. A class without one is not offered on a vehicle whose
+        autopilot holds positions (a class that drives nothing and needs nothing of such a
+        vehicle writes ``return self.on_update(p)``)."""
+        raise NotImplementedError(f"{self.name} has no position law")
 
     def take_events(self) -> list[tuple[str, dict[str, Any]]]:
         """The events raised since the last call (the vehicle loop sends them on)."""

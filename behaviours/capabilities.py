@@ -64,11 +64,17 @@ def _chosen(among: Iterable[str], only: Iterable[str] | None) -> list[type[Behav
     return [registry.behaviour(n) for n in among if keep is None or n in keep]
 
 
+def registered(vehicle: str, only: Iterable[str] | None = None) -> Declaration:
+    """The declaration of every registered behaviour, or of those of them in ``only`` (in the
+    registry's order): what a vehicle that runs the registry's classes declares."""
+    return Declaration(vehicle, SOURCE,
+                       declaration_text(_chosen(list(registry.REGISTRY), only)))
+
+
 def simulated(vehicle: str, only: Iterable[str] | None = None) -> Declaration:
     """The simulated stack's declaration: every registered behaviour (the Ictineu's and the
     seabed ones, docs/SEABED.md), or those of them in ``only``."""
-    return Declaration(vehicle, SOURCE,
-                       declaration_text(_chosen(list(registry.REGISTRY), only)))
+    return registered(vehicle, only)
 
 
 def ictineu(vehicle: str, only: Iterable[str] | None = None) -> Declaration:

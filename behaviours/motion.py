@@ -1,8 +1,19 @@
 """The behaviours that move the vehicle: GoTo, WallInspection, AchieveHeadDist, Surface.
 
-Each drives the degrees of freedom AAL.md gives it and raises its events. Gains and speed
+Each drives the degrees of freedom docs/AAL.md gives it and raises its events. Gains and speed
 limits are plausible values for a slow inspection AUV (Ictineu surveys at about 0.1 m/s over
 the wall, paper 002 §7); they are constructor arguments so that a user can tune them.
+
+Each has both control laws (behaviours/base.py): velocity demands (``on_update``: the simulated
+Ictineu's controller) and position setpoints (``on_setpoints``: an autopilot that holds
+positions, ArduSub in GUIDED, run by the MAVLink adapter, docs/MAVLINK.md). The position laws:
+
+- GoTo: its target as the setpoint; ``reached`` within the tolerance and 5 deg of the yaw.
+- WallInspection (ArduSub has none): walks its (y, z) waypoints with a look-ahead point on each
+  leg, so that the autopilot's position controller moves at a survey pace.
+- AchieveHeadDist (ArduSub has none): holds the vehicle at the distance from the wall's foot
+  (``Perception.wall_point``: ArduSub's DISTANCE_SENSOR), turned to the heading.
+- Surface: the autopilot's own surfacing does the work (ArduSub's SURFACE mode); no setpoint.
 """
 
 from __future__ import annotations
@@ -11,6 +22,8 @@ import math
 from typing import Any
 
 from behaviours.base import Behaviour, Perception, Response, clamp, wrap
+
+LOOKAHEAD = 0.3  # m ahead on a WallInspection leg (position law): a survey pace
 
 
 class Reach:
@@ -109,6 +122,16 @@ class GoTo(Behaviour):
                              self.yaw_gain * eyaw, 0.3)})
 
 
+    def on_setpoints(self, p: Perception) -> Response:
+        """The target (x, y, z, and yaw if given) as the autopilot's position setpoint."""
+        (x, y, z, yaw), distance, eyaw = self.aim(p)
+        if self.reached(distance, eyaw):
+            self.raise_event("reached")
+        target = {"x": x, "y": y, "z": z}
+        if "yaw" in self.params:  # else the autopilot keeps its heading
+            target["yaw"] = yaw
+        return Response(setpoints=target)
+
     def aim(self, p: Perception) -> tuple[tuple[float, float, float, float], float, float]:
         """The target (x, y, z, yaw: what the action gives, the vehicle's own for the rest),
         the distance to it (m) and the yaw error (rad)."""
@@ -135,13 +158,15 @@ def wall_path(value: Any) -> list[tuple[float, float]]:
 
 
 class WallInspection(Behaviour):
-    """Follow a path of (y, z) waypoints in front of the wall, moving in sway and heave."""
+    """Follow a path of (y, z) waypoints in front of the wall, moving in sway and heave: the
+    wall survey (its ``path`` is the run's plan)."""
 
     name = "WallInspection"
     drives = ("y", "z")
     events = ("done", "failed")
     parameters = ("path",)
     priority = 20  # the motion along the wall over a transit
+    surveys = True
 
     def __init__(self, speed: float = 0.12, tolerance: float = 0.15, clearance: float = 0.4,
                  patience: float = 30.0, progress: float = 0.05) -> None:
@@ -155,6 +180,7 @@ class WallInspection(Behaviour):
         self.index = 0
         self.failed = False
         self.reach = Reach(t, self.clearance, self.patience, self.progress)
+        self.leg_start: tuple[float, float] | None = None  # position law: where it was enabled
         try:
             self.path = wall_path(self.params.get("path"))
         except ValueError as exc:
@@ -185,6 +211,37 @@ class WallInspection(Behaviour):
         k = self.speed / max(d, self.speed)  # full speed far away, slow down on arrival
         # sway along the wall: world y expressed in the body frame (facing the wall, ~ +v)
         return Response({"y": k * ey * math.cos(p.psi), "z": k * ez})
+
+    def on_setpoints(self, p: Perception) -> Response:
+        """The (y, z) waypoints, each leg followed by a point ``LOOKAHEAD`` ahead of the
+        vehicle (the autopilot's position controller then moves at a survey pace)."""
+        if not self.path:
+            return Response()
+        here = (p.y, p.z)
+        if self.leg_start is None:
+            self.leg_start = here
+        while self.index < len(self.path) and \
+                math.dist(self.path[self.index], here) <= self.tolerance:
+            self.leg_start = self.path[self.index]
+            self.index += 1
+        if self.index >= len(self.path):
+            self.raise_event("done", waypoints=len(self.path))
+            y, z = self.path[-1]
+        else:
+            y, z = lookahead(self.leg_start, self.path[self.index], here)
+        return Response(setpoints={"y": y, "z": z})
+
+
+def lookahead(a: tuple[float, float], b: tuple[float, float], p: tuple[float, float]
+              ) -> tuple[float, float]:
+    """The point LOOKAHEAD beyond p's projection on the leg a -> b, not past b."""
+    dy, dz = b[0] - a[0], b[1] - a[1]
+    length = math.hypot(dy, dz)
+    if length < 1e-9 or math.dist(p, b) <= LOOKAHEAD:
+        return b
+    s = ((p[0] - a[0]) * dy + (p[1] - a[1]) * dz) / length
+    s = min(length, max(0.0, s) + LOOKAHEAD)
+    return a[0] + dy * s / length, a[1] + dz * s / length
 
 
 class AchieveHeadDist(Behaviour):
@@ -228,6 +285,19 @@ class AchieveHeadDist(Behaviour):
         return Response({"x": clamp(self.gain * e_dist, self.speed),
                          "yaw": clamp(self.yaw_gain * e_head, 0.3)})
 
+    def on_setpoints(self, p: Perception) -> Response:
+        """The point ``distance`` off the wall's foot along its normal (x) and the heading from
+        the normal (yaw); ``lost`` when the wall has not been seen for ``patience`` s."""
+        if p.wall_distance is None or p.wall_point is None or p.wall_heading is None \
+                or p.wall_normal is None:
+            self.good_since = None  # time without the wall does not count as settled
+            if p.t - max(self.seen_at, p.wall_seen_at) > self.patience:
+                self.raise_event("lost", reason="wall not tracked")
+            return Response()
+        heading, distance = self.angle("heading", 0.0), self.param("distance", 1.5)
+        self.settling(p.t, p.wall_distance - distance, wrap(heading - p.wall_heading))
+        return Response(setpoints={"x": p.wall_point[0] - distance * math.cos(p.wall_normal),
+                                   "yaw": p.wall_normal + heading})
 
     def settling(self, t: float, e_dist: float, e_head: float) -> None:
         """'achieved' once within 0.1 m and 2 degrees of the aim for ``settle`` s on end."""
@@ -255,3 +325,9 @@ class Surface(Behaviour):
         if p.z <= self.depth:
             self.raise_event("surfaced")
         return Response({"z": -self.speed})
+
+    def on_setpoints(self, p: Perception) -> Response:
+        """The autopilot's own surfacing rises (ArduSub's SURFACE mode, switched to by the
+        MAVLink adapter): ``surfaced`` at the same depth, no setpoint."""
+        self.on_update(p)
+        return Response()

@@ -4,6 +4,12 @@ of freedom it ``drives``, the ``parameters`` it takes, the ``events`` it raises 
 (tests/behaviours/test_registry.py), every vehicle declares from it (behaviours/capabilities.py), the
 coordinator ranks by it, the simulated stack runs one of each.
 
+Every other list of behaviours is derived from it and from what the classes declare, never
+kept by hand: which move the vehicle (``drives``: what a disarmed ArduSub-like vehicle stops),
+which switch a device (``switches``: the camera's and the logger's hooks, :func:`switching`),
+which the MAVLink adapter runs (those with a position law, :func:`with_position_law`), the
+paper's stack (``behaviours.ALL``).
+
 Registering a behaviour is one line below (docs/EXTENDING.md, "Add a behaviour")::
 
     register(HoldDepth)
@@ -67,6 +73,16 @@ def rank(name: str) -> int:
     name ranks with the lowest."""
     cls = REGISTRY.get(name)
     return cls.priority if cls is not None else 0
+
+
+def switching(device: str) -> tuple[str, ...]:
+    """The behaviours that switch ``device`` ("camera", "logs") while enabled, by name."""
+    return tuple(cls.name for cls in REGISTRY.values() if device and cls.switches == device)
+
+
+def with_position_law() -> tuple[type[Behaviour], ...]:
+    """The behaviours that answer position setpoints (an autopilot that holds positions)."""
+    return tuple(cls for cls in REGISTRY.values() if cls.has_position_law())
 
 
 def priority() -> tuple[str, ...]:

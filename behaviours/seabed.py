@@ -71,7 +71,6 @@ class _Follower(Behaviour):
 
     events = ("ended", "lost")
     parameters = ("speed", "length")
-    tracker = ""
 
     def __init__(self, patience: float = 10.0) -> None:
         super().__init__()
@@ -143,6 +142,7 @@ class SearchLine(Behaviour):
     drives = ("x", "y", "yaw")
     events = ("found", "exhausted")
     parameters = ("width",)
+    tracker = "search"  # the feature extraction alone, for the line last followed
 
     def __init__(self, legs: int = 4, advance: float = 2.0, speed: float = 0.4,
                  patience: float = 20.0) -> None:

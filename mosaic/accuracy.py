@@ -18,6 +18,7 @@ import numpy.typing as npt
 from mosaic.blending import Canvas
 from mosaic.projection import FloatArray, Intrinsics, apply, homography, wall_points
 from mosaic.registration import Pair
+from vehicle.sensors.wall_texture import TextureSpec, WallTexture
 
 Image = npt.NDArray[np.uint8]
 
@@ -79,8 +80,6 @@ def truth_on_canvas(meta: dict[str, object], canvas: Canvas) -> Image | None:
     spec = meta.get("texture")
     if not isinstance(spec, dict):
         return None
-    from vehicle.sensors.camera import TextureSpec, WallTexture
-
     tex = WallTexture(TextureSpec(seed=int(spec["seed"]), mm_per_px=float(spec["mm_per_px"]),
                                   y_range=(float(spec["y_range"][0]), float(spec["y_range"][1])),
                                   z_range=(float(spec["z_range"][0]), float(spec["z_range"][1]))))

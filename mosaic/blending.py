@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from mosaic.projection import FloatArray, Intrinsics, homography
+from mosaic.projection import FloatArray, Intrinsics, homography, wall_points
 
 Image = npt.NDArray[np.uint8]
 FloatImage = npt.NDArray[np.float32]
@@ -71,8 +71,6 @@ def centre_weight(k: Intrinsics, power: float = 4.0) -> FloatImage:
 
 def footprint(pose: FloatArray, k: Intrinsics) -> tuple[float, float, float, float]:
     """Bounding box (y_min, y_max, z_min, z_max) of an image's pose on the wall."""
-    from mosaic.projection import wall_points
-
     c = k.corners()
     a, b = k.slopes(c)
     w = wall_points(np.asarray(pose, dtype=float)[None, :], a, b)

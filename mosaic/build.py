@@ -4,15 +4,15 @@
 registers consecutive and overlapping non-consecutive pairs, aligns all images globally with
 the navigation data as a prior, blends the mosaic, draws the coverage map and — for a
 simulated run, whose ``camera.json`` names the wall texture — measures all of it against the
-ground truth. :func:`write` puts ``PREFIX.mosaic.png``, ``PREFIX.coverage.png`` and
-``PREFIX.mosaic.json`` (the figures) beside the run log.
+ground truth; each stage is a function of :mod:`mosaic.stages`. :func:`write` puts
+``PREFIX.mosaic.png``, ``PREFIX.coverage.png`` and ``PREFIX.mosaic.json`` (the figures) beside
+the run log.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -22,9 +22,22 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from mosaic import accuracy, alignment, blending, illumination, registration
+from mosaic import accuracy, alignment, blending, registration
 from mosaic.images import Survey, read
-from mosaic.projection import FloatArray, homography
+from mosaic.projection import FloatArray
+from mosaic.stages import (
+    Aligned,
+    Blended,
+    Detectors,
+    Matcher,
+    Pairs,
+    Prepared,
+    align,
+    blend,
+    prepare,
+    register,
+    size_on_wall,
+)
 
 Image = npt.NDArray[np.uint8]
 
@@ -40,176 +53,86 @@ class Result:
     figures: dict[str, Any] = field(default_factory=dict)
 
 
-def _flat_field(raw: list[Image | None], k: Any,
-                sample: int = 150) -> illumination.FloatImage:
-    """The flat field from up to ``sample`` undamaged images spread over the survey."""
-    good = [img for img in raw if img is not None]
-    step = max(1, len(good) // sample)
-    if not good:
-        return np.ones((k.height, k.width, 3), np.float32)
-    return illumination.flat_field(good[::step])
-
-
 def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool = True,
           compare_without_prior: bool = True, per_image: int = 3) -> Result:
-    """The mosaic of a run's images folder (or of the run log beside it)."""
-    t0, cpu0 = time.perf_counter(), time.process_time()
+    """The mosaic of a run's images folder (or of the run log beside it), stage by stage: the
+    images prepared, the pairs registered, the poses aligned, the mosaic blended, the figures
+    (and, for a simulated run, the figures against the ground truth)."""
+    clock = Clock()
     survey = read(path)
-    frames, k = survey.frames, survey.k
-    n = len(frames)
-    if n == 0:
+    if not survey.frames:
         raise ValueError(f"{survey.folder}: the run took no images")
-    skipped: dict[int, str] = {}
-    workers = ThreadPoolExecutor(max(1, min(4, os.cpu_count() or 1)))  # OpenCV frees the GIL
-    raw: list[Image | None] = list(workers.map(survey.load, frames))  # read once
-    for i, f in enumerate(frames):  # damaged images set aside at once
-        why = illumination.damaged(raw[i])
-        if why is not None:
-            skipped[f.index] = why
-            raw[i] = None
-    field_ = _flat_field(raw, k)
-    local = threading.local()
+    prior = np.array([f.prior for f in survey.frames], dtype=float)
+    prior_std = np.array([f.prior_std for f in survey.frames], dtype=float)
+    size = size_on_wall(survey.k, prior)  # of an image, by the navigation data
+    detectors = Detectors()
+    with ThreadPoolExecutor(max(1, min(4, os.cpu_count() or 1))) as workers:  # OpenCV frees
+        images = prepare(survey, workers, detectors)  # the GIL
+        clock.lap("features")
+        matcher = Matcher(survey.k, images.features, workers, detectors, size)
+        pairs = register(matcher, prior, images.usable, per_image)
+        clock.lap("registration")
+        aligned = align(matcher, prior, prior_std, pairs, images.usable, per_image)
+        clock.lap("alignment")
+    blended = blend(survey, images, aligned.poses, size, mm_per_px)
+    clock.lap("blending")
+    figures = _figures(survey, images, pairs, aligned, blended, mm_per_px, clock)
+    result = Result(survey, blended.mosaic, blended.coverage, blended.canvas, aligned.poses,
+                    images.skipped, figures)
+    truth = np.array([f.truth for f in survey.frames], dtype=float) if all(
+        f.truth is not None for f in survey.frames) else None
+    if measure and truth is not None:
+        _measure(result, truth, pairs.found, prior, prior_std, blended.count,
+                 compare_without_prior)
+    return result
 
-    def prepare(i: int) -> tuple[str | None, Image | None, registration.Features | None]:
-        img = raw[i]
-        if img is None:
-            return None, None, None
-        corrected = illumination.correct(img, field_)
-        why = illumination.textureless(corrected)
-        if why is not None:
-            return why, None, None
-        if not hasattr(local, "detector"):
-            local.detector = registration.Detector()
-        feat = local.detector.detect(illumination.grey_u8(corrected))
-        return None, np.asarray(np.clip(corrected, 0, 255), dtype=np.uint8), feat
 
-    feats: list[registration.Features | None] = []
-    for i, (why, kept, feat) in enumerate(workers.map(prepare, range(n))):
-        if why is not None:
-            skipped[frames[i].index] = why
-        raw[i] = kept  # the corrected image, kept for blending
-        feats.append(feat)
-    t_features = time.perf_counter()
-    usable = [ft is not None for ft in feats]
-    prior = np.array([f.prior for f in frames], dtype=float)
-    prior_std = np.array([f.prior_std for f in frames], dtype=float)
-    # registration: consecutive usable images, then overlapping ones from other passages
-    hw = [homography(p, k) for p in prior]
-    ca, cb = k.slopes(np.array([[k.cx, k.cy]]))
-    from mosaic.projection import wall_points
+class Clock:
+    """The wall time of each stage and the process's CPU time since the build started."""
 
-    centres = wall_points(prior, ca[0], cb[0])
-    d = float(np.median(prior[:, 2]))
-    fw, fh = d * k.width / k.fx, d * k.height / k.fy
-    order = [i for i in range(n) if usable[i]]
-    tried = [(a, b, True) for a, b in zip(order, order[1:])]
-    tried += [(a, b, False) for a, b in registration.candidates(centres, (fw, fh), usable,
-                                                                per_image=per_image)]
-    shape = (k.height, k.width)
+    def __init__(self) -> None:
+        self.t0, self.cpu0 = time.perf_counter(), time.process_time()
+        self.last = self.t0
+        self.stages: dict[str, float] = {}
 
-    def register(job: tuple[int, int, bool]) -> registration.Pair | str:
-        a, b, consecutive = job
-        fa, fb = feats[a], feats[b]
-        assert fa is not None and fb is not None
-        if not hasattr(local, "detector"):
-            local.detector = registration.Detector()
-        guess = np.linalg.inv(hw[a]) @ hw[b]
-        got: registration.Pair | str = local.detector.match(fa, fb, shape, a, b, consecutive,
-                                                            guess)
-        return got
+    def lap(self, stage: str) -> None:
+        now = time.perf_counter()
+        self.stages[stage], self.last = now - self.last, now
 
-    pairs: list[registration.Pair] = []
-    failed: dict[str, int] = {}
-    for got in workers.map(register, tried):
-        if isinstance(got, str):
-            key = got.split(" ", 1)[-1] if got[0].isdigit() else got
-            failed[key] = failed.get(key, 0) + 1
-        else:
-            pairs.append(got)
-    t_register = time.perf_counter()
-    al = alignment.align(prior, prior_std, pairs, k, use_prior=True)
-    poses = al.poses
-    # §6.6: look for overlaps again from the aligned poses, register the new ones, align
-    # again; until no new pair (at most 3 rounds)
-    seen_pairs = {(a, b) for a, b, _ in tried}
-    rounds = 1
-    for _ in range(2):
-        centres = wall_points(poses, ca[0], cb[0])
-        new = [(a, b, False) for a, b in registration.candidates(centres, (fw, fh), usable,
-                                                                 per_image=per_image)
-               if (a, b) not in seen_pairs]
-        if not new:
-            break
-        seen_pairs.update((a, b) for a, b, _ in new)
-        tried += new
-        hw = [homography(p, k) for p in poses]
-        found = [got for got in workers.map(register, new) if not isinstance(got, str)]
-        if not found:
-            break
-        pairs += found
-        al = alignment.align(prior, prior_std, pairs, k, use_prior=True, x0=poses)
-        poses = al.poses
-        rounds += 1
-    workers.shutdown()
-    t_align = time.perf_counter()
-    # blending
+    @property
+    def elapsed(self) -> float:
+        return self.last - self.t0
+
+
+# -- the figures --------------------------------------------------------------------------------
+def _figures(survey: Survey, images: Prepared, pairs: Pairs, aligned: Aligned,
+             blended: Blended, mm_per_px: float, clock: Clock) -> dict[str, Any]:
+    n, canvas, count = len(survey.frames), blended.canvas, blended.count
     registered = np.zeros(n, bool)
-    for p in pairs:
+    for p in pairs.found:
         registered[p.i] = registered[p.j] = True
-    boxes = [blending.footprint(poses[i], k) for i in range(n) if usable[i]]
-    plan = survey.plan()
-    if plan:
-        py, pz = np.array(plan).T
-        boxes.append((py.min() - fw / 2, py.max() + fw / 2, pz.min() - fh / 2, pz.max() + fh / 2))
-    if not boxes:
-        reasons: dict[str, int] = {}
-        for why in skipped.values():
-            reasons[why.split(" (")[0]] = reasons.get(why.split(" (")[0], 0) + 1
-        said = ", ".join(f"{c} {r}" for r, c in sorted(reasons.items(), key=lambda x: -x[1]))
-        raise ValueError(f"{survey.folder}: no usable image of the wall among {n} ({said}; "
-                         "'no texture': open water, the wall out of sight)")
-    canvas = blending.canvas_for(boxes, mm_per_px)
-    blender = blending.Blender(canvas, k)
-    for i in range(n):
-        if not usable[i]:
-            continue
-        img = raw[i]
-        assert img is not None
-        blender.add(img, poses[i])
-        raw[i] = None  # the memory goes as the mosaic grows
-    mosaic = blender.mosaic()
-    coverage = blending.coverage_image(blender.count, canvas,
-                                       _plan_drawer(plan, canvas, fw, fh) if plan else None)
-    t_blend = time.perf_counter()
-    elapsed = t_blend - t0
-    figures: dict[str, Any] = {
-        "images": n, "used": int(sum(usable)), "set_aside": len(skipped),
+    seconds = {stage: round(s, 2) for stage, s in clock.stages.items()}
+    seconds["total"] = round(clock.elapsed, 2)
+    seconds["cpu"] = round(time.process_time() - clock.cpu0, 2)
+    return {
+        "images": n, "used": int(sum(images.usable)), "set_aside": len(images.skipped),
         "registered_images": int(registered.sum()),
-        "pairs_tried": len(tried), "pairs_registered": len(pairs),
-        "consecutive_pairs": sum(1 for p in pairs if p.consecutive),
-        "non_consecutive_pairs": sum(1 for p in pairs if not p.consecutive),
-        "pairs_failed": failed, "pairs_rejected_by_alignment": len(al.rejected),
-        "alignment_rounds": rounds,
+        "pairs_tried": len(pairs.tried), "pairs_registered": len(pairs.found),
+        "consecutive_pairs": sum(1 for p in pairs.found if p.consecutive),
+        "non_consecutive_pairs": sum(1 for p in pairs.found if not p.consecutive),
+        "pairs_failed": pairs.failed,
+        "pairs_rejected_by_alignment": len(aligned.alignment.rejected),
+        "alignment_rounds": aligned.rounds,
         "mm_per_px": mm_per_px, "size_px": [canvas.cols, canvas.rows],
         "wall_area_m2": [round(canvas.y0, 3), round(canvas.z0, 3),
                          round(canvas.y0 + canvas.cols * canvas.s, 3),
                          round(canvas.z0 + canvas.rows * canvas.s, 3)],
-        "area_seen_m2": round(float((blender.count > 0).sum()) * canvas.s**2, 2),
-        "area_seen_twice_m2": round(float((blender.count > 1).sum()) * canvas.s**2, 2),
-        "images_per_cell": _per_cell(blender.count),
-        "seconds": {"features": round(t_features - t0, 2),
-                    "registration": round(t_register - t_features, 2),
-                    "alignment": round(t_align - t_register, 2),
-                    "blending": round(t_blend - t_align, 2), "total": round(elapsed, 2),
-                    "cpu": round(time.process_time() - cpu0, 2)},
-        "images_per_second": round(n / elapsed, 1),
+        "area_seen_m2": round(float((count > 0).sum()) * canvas.s**2, 2),
+        "area_seen_twice_m2": round(float((count > 1).sum()) * canvas.s**2, 2),
+        "images_per_cell": _per_cell(count),
+        "seconds": seconds,
+        "images_per_second": round(n / clock.elapsed, 1),
     }
-    result = Result(survey, mosaic, coverage, canvas, poses, skipped, figures)
-    truth = np.array([f.truth for f in frames], dtype=float) if all(
-        f.truth is not None for f in frames) else None
-    if measure and truth is not None:
-        _measure(result, truth, pairs, prior, prior_std, blender.count, compare_without_prior)
-    return result
 
 
 def _per_cell(count: npt.NDArray[np.uint16]) -> dict[str, float]:
@@ -244,18 +167,6 @@ def _measure(result: Result, truth: FloatArray, pairs: list[registration.Pair],
         cp = accuracy.control_points(result.mosaic, gt, count, result.canvas)
         fig["control_points"] = len(cp)
         fig["mosaic_error_mm"] = accuracy.stats_mm(np.hypot(cp[:, 2], cp[:, 3]))
-
-
-def _plan_drawer(plan: list[tuple[float, float]], canvas: blending.Canvas, fw: float,
-                 fh: float) -> Any:
-    def draw(img: Image) -> None:
-        import cv2
-
-        py, pz = np.array(plan).T
-        a = canvas.to_px(py.min() - fw / 2, pz.min() - fh / 2)
-        b = canvas.to_px(py.max() + fw / 2, pz.max() + fh / 2)
-        cv2.rectangle(img, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), (255, 255, 255), 2)
-    return draw
 
 
 def write(result: Result, prefix: Path) -> dict[str, Path]:

@@ -12,12 +12,11 @@ from pathlib import Path
 from typing import Any
 
 from mosaic.images import images_folder
+from vehicle.sensors.image_recorder import ImageRecorder
 
 
 def attach(stack: Any, log_path: Path) -> None:
     """Record the stack's camera images into ``RUN.images/`` beside the run log."""
-    from vehicle.sensors.camera import ImageRecorder
-
     cfg = getattr(stack, "config", None)
     stack.images = ImageRecorder(images_folder(log_path), seed=getattr(cfg, "seed", 1),
                                  wall_curvature=getattr(cfg, "wall_curvature", 0.0),
@@ -29,7 +28,7 @@ def report(stack: Any, log_path: Path, say: Any) -> None:
     recorder = getattr(stack, "images", None)
     if recorder is None or recorder.count == 0:
         return
-    from mosaic.build import build, summary_lines, write
+    from mosaic.build import build, summary_lines, write  # lazy: SciPy only for a mosaic
 
     try:
         recorder.flush()  # the camera's worker may still be writing the last images

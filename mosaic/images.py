@@ -1,4 +1,5 @@
-"""A run's images and the navigation data of each (what vehicle.sensors.camera.ImageRecorder wrote).
+"""A run's images and the navigation data of each (what
+vehicle.sensors.image_recorder.ImageRecorder wrote).
 
 A folder holds ``camera.json`` (intrinsics, the wall plane, the texture's seed and scale, the
 planned survey path), ``index.csv`` (one line per image) and the PNG images. :func:`find`

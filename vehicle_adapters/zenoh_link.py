@@ -1,4 +1,5 @@
-"""The Zenoh adapter (AAL.md): the player on one side of a Zenoh link, the vehicle on the other.
+"""The Zenoh adapter (docs/AAL.md): the player on one side of a Zenoh link, the vehicle on the
+other.
 
 The key layout and configuration both ends share are in :mod:`aal.zenoh`.
 

@@ -1,7 +1,7 @@
 """The vehicle's behaviours (behaviours/), the coordinator and the velocity controller
 (behaviours/coordinator.py, vehicle/control/controller.py), each on its own with hand-made perceptions.
 
-Behaviours: the lifecycle (initialise / update / terminate, take_events), the events of AAL.md
+Behaviours: the lifecycle (initialise / update / terminate, take_events), the events of docs/AAL.md
 (each once per enable), the degrees of freedom each drives and its speed limits. Motion
 behaviours are closed around a kinematic vehicle (the response taken as the body velocities
 it gets), so that "walks its waypoints in order" is checked on a real sequence of perceptions.
@@ -74,7 +74,7 @@ def names(events: list[tuple[float, str, dict[str, Any]]]) -> list[str]:
     return [n for _, n, _ in events]
 
 
-# --- what AAL.md and the task library declare -------------------------------------------------
+# --- what docs/AAL.md and the task library declare --------------------------------------------
 def test_drives_and_events_are_those_of_the_aal_table_and_the_task_library() -> None:
     aal = {"GoTo": (("x", "y", "z", "yaw"), ("reached", "failed")),
            "WallInspection": (("y", "z"), ("done", "failed")),

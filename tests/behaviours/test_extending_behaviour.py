@@ -6,7 +6,8 @@ checked and verified by the real ``mclc`` and run in process on the simulated ve
 behaviour example's class is written into a temporary package, its registry line executed
 there, its statement appended to a copy of the shipped Ictineu library, and its mission
 compiled with the API and run in process on the simulated stack to its end, the new
-behaviour's event arriving.
+behaviour's event arriving; and the same mission over MAVLink (UDP loopback) on the ArduSub-like
+vehicle, the adapter running the class's position law with no file of vehicle_adapters/ edited.
 """
 
 from __future__ import annotations
@@ -14,21 +15,25 @@ from __future__ import annotations
 import re
 import shlex
 import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from app.safe_exit import _parameters, check_capabilities, declared_behaviours
+from mission.capabilities import check_capabilities, declared_behaviours, parameters_taken
 from behaviours import capabilities, registry
 from mcl import tasklib
 from mcl.api import compile_file
 from petri.execution.player import Player, Record
 from petri.execution.runner import Outcome, run
-from tests.support import REPO, cli
+from tests.support import REPO, budget, cli, free_udp_port
 from tests.behaviours.test_registry import disagreements
 from vehicle.control.stack import IctineuStack, StackConfig
+from vehicle.servers.ardusub import ArduSubVehicle
+from vehicle.servers.ardusub_autopilot import ACCEPTED
 from vehicle_adapters.inprocess import InProcess
+from vehicle_adapters.mavlink.link import MavlinkVehicle
 
 DOC = REPO / "docs" / "EXTENDING.md"
 BLOCK = re.compile(r"^```(\w+)[ \t]*(\S*)[ \t]*\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
@@ -139,7 +144,7 @@ def test_the_doc_s_new_behaviour_is_three_files_and_runs(extension: Path) -> Non
     assert disagreements(tasklib.load([str(library)])) == []  # the registry agrees
     declared = declared_behaviours(capabilities.simulated("sim"))
     assert declared.behaviours["HoldDepth"].events == ("held",)
-    assert _parameters(declared)["HoldDepth"] == {"depth"}
+    assert parameters_taken(declared)["HoldDepth"] == {"depth"}
 
     mission = extension / "hold.mcl"
     mission.write_text(block(blocks, "hold.mcl"), "utf-8")
@@ -160,3 +165,56 @@ def test_the_doc_s_new_behaviour_is_three_files_and_runs(extension: Path) -> Non
     held = next(r for r in records if r.kind == "event" and r.data["event"] == "HoldDepth.held")
     assert abs(float(held.data["data"]["depth"]) - 3.0) <= 0.2, held.data
     assert stack.coordinator.overlaps == 0 and stack.unknown_actions == []
+
+
+def install(extension: Path) -> tuple[Path, Path]:
+    """The doc's three files in place (the class, its registry line, the library with its
+    statement appended) and its mission: (the library, the mission)."""
+    blocks = section("Add a behaviour")
+    (extension / "extension" / "depth.py").write_text(block(blocks, "behaviours/depth.py"),
+                                                      "utf-8")
+    exec(compile(block(blocks, "behaviours/registry.py"),  # noqa: S102
+                 "EXTENDING.md: behaviours/registry.py", "exec"),
+         {"__name__": "extension.registry", "__package__": "extension",
+          "register": registry.register})
+    library = extension / "ictineu.tasks"
+    library.write_text((REPO / "mcl" / "tasks" / "ictineu.tasks").read_text("utf-8") + "\n"
+                       + block(blocks, "mcl/tasks/ictineu.tasks"), "utf-8")
+    mission = extension / "hold.mcl"
+    mission.write_text(block(blocks, "hold.mcl"), "utf-8")
+    return library, mission
+
+
+def test_the_doc_s_new_behaviour_runs_over_mavlink(extension: Path) -> None:
+    library, mission = install(extension)
+    compiled = compile_file(str(mission), [str(library)], require_values=True)
+    port = free_udp_port()
+    stop, ready = threading.Event(), threading.Event()
+    ardusub = ArduSubVehicle(f"udpout:127.0.0.1:{port}", speed=20.0, stop=stop, ready=ready)
+    served = threading.Thread(target=ardusub.run, name="ardusub", daemon=True)
+    served.start()
+    try:
+        assert ready.wait(budget(3)), "the ArduSub-like vehicle never got ready"
+        with MavlinkVehicle(f"udpin:127.0.0.1:{port}", connect_timeout=budget(3)) as vehicle:
+            said = vehicle.declaration()
+            assert "behaviour HoldDepth drives z events held;" in said.text  # no 4th file
+            check_capabilities(compiled, said)
+            player = Player(compiled.net)
+            records: list[Record] = []
+            player.observers.append(records.append)
+            outcome = run(player, vehicle, "hold", max_time=600.0)
+    finally:
+        stop.set()
+        served.join(budget(2))
+    assert outcome.status == "ok", outcome
+    seen = events(records)
+    assert [e for _, e in seen][:2] == ["HoldDepth.held", "Surface.surfaced"], seen
+    held = next(r for r in records if r.kind == "event" and r.data["event"] == "HoldDepth.held")
+    assert abs(float(held.data["data"]["depth"]) - 3.0) <= 0.2, held.data
+    # the vehicle's side: HoldDepth drives z, so a disarm switches it off (no list names it)
+    stack = ardusub.stack
+    assert ardusub.arm(True) == ACCEPTED and stack.behaviours["HoldDepth"].drives == ("z",)
+    ardusub.act("enable", "HoldDepth", {"depth": 3.0})
+    assert stack.behaviours["HoldDepth"].active
+    ardusub.arm(False)
+    assert not stack.behaviours["HoldDepth"].active

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from aal.messages import Declaration
-from app.safe_exit import _parameters, declared_behaviours
+from mission.capabilities import declared_behaviours, parameters_taken
 from behaviours import ALL, Behaviour, Response, capabilities, registry
 from behaviours.coordinator import PRIORITY, Coordinator
 from behaviours.seabed import SEABED, statements
@@ -78,7 +78,7 @@ def test_the_shipped_task_libraries_agree_with_the_registry() -> None:
     library = shipped()
     assert disagreements(library) == []
     assert set(library.behaviours) == set(registry.REGISTRY)  # each declared, none extra
-    passed = _parameters(library)
+    passed = parameters_taken(library)
     assert passed["GoTo"] == set(registry.behaviour("GoTo").parameters)
     assert passed["FollowCable"] == {"speed", "length"}
 
@@ -133,7 +133,7 @@ def test_every_vehicle_declaration_parses_and_agrees_with_the_registry(
     assert library.behaviours, declaration.text
     assert disagreements(library) == []
     assert library.declared_dofs == ["x", "y", "z", "yaw"]
-    takes = _parameters(library)
+    takes = parameters_taken(library)
     for name in library.behaviours:  # every parameter of each, no more
         assert takes[name] == set(registry.behaviour(name).parameters), name
 
@@ -175,7 +175,7 @@ def test_a_new_behaviour_is_one_line_and_its_priority_ranks_it(temporary: list[s
     temporary.append("Dock")
     assert registry.priority() == ("Dock", *PRIORITY)
     assert "behaviour Dock drives x, z events docked;" in capabilities.simulated("s").text
-    assert _parameters(declared_behaviours(capabilities.simulated("s")))["Dock"] == {"station"}
+    assert parameters_taken(declared_behaviours(capabilities.simulated("s")))["Dock"] == {"station"}
     c = Coordinator()
     out = c.merge({"Surface": Response({"z": -0.3}), "Dock": Response({"x": 0.1}, {"z": 4.0})})
     assert out == {"x": 0.1, "y": 0.0, "z": 0.0, "yaw": 0.0}  # z held by Dock's setpoint

@@ -16,7 +16,9 @@ from app import mosaic as cli
 from mosaic import accuracy, alignment, build, illumination, registration
 from mosaic.projection import Intrinsics as K
 from mosaic.projection import apply, homography, pose_from_world
-from vehicle.sensors.camera import ImageRecorder, Intrinsics, TextureSpec, WallCamera, WallTexture, wall_hits
+from vehicle.sensors.camera import Intrinsics, WallCamera, wall_hits
+from vehicle.sensors.image_recorder import ImageRecorder
+from vehicle.sensors.wall_texture import TextureSpec, WallTexture
 
 SPEC = TextureSpec(seed=7, y_range=(-1.0, 4.0), z_range=(0.0, 3.5))
 KK = K(**Intrinsics().__dict__)

@@ -8,13 +8,18 @@ the behaviours' events go back to it. The stack runs in simulated time, one tick
 
 It is what ``mcl run`` drives by default, through the in-process adapter (it implements the
 adapter's ``on_action`` / ``next_time`` / ``due``), and what ``mcl vehicle`` will serve.
+
+It runs one of each registered behaviour (behaviours/registry.py) and names none: what it does
+for one it reads of the class (behaviours/base.py) — the device it ``switches`` (the camera
+takes images while such a behaviour is enabled), the seabed ``tracker`` it needs, whether it
+``surveys`` the wall (the run's figures count the wall tracker's error meanwhile).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -27,13 +32,13 @@ from vehicle.control.controller import VelocityController
 from vehicle.perception.navigator import Navigator
 from vehicle.world.robot import AREA, Environment, Ictineu, VehicleState, wrap_angle
 from vehicle.perception.seabed_vision import SeabedVision
-from vehicle.sensors.instruments import (
+from vehicle.sensors.instruments import Sensors
+from vehicle.sensors.readings import (
     CameraImage,
     DepthReading,
     DvlReading,
     HeadingReading,
     HousingReading,
-    Sensors,
     SonarBeam,
     UsblFix,
 )
@@ -66,6 +71,14 @@ class StackConfig:
     floor_depth: float = 12.0
     area: tuple[float, float, float, float] = AREA  # m: x_min, x_max, y_min, y_max (banks)
     faults: list[tuple[str, float]] = field(default_factory=list)  # (kind, mission time)
+
+
+class Device(Protocol):
+    """A device a behaviour switches (``Behaviour.switches``): on while it is enabled."""
+
+    def start(self, t: float) -> None: ...
+
+    def stop(self) -> None: ...
 
 
 class IctineuStack:
@@ -101,6 +114,7 @@ class IctineuStack:
         self.tracker: WallTracker | None = None
         self.behaviours: dict[str, bh.Behaviour] = {cls.name: cls()  # one of each registered
                                                     for cls in registry.behaviours()}
+        self.devices: dict[str, Device] = {"camera": self.sensors.camera}  # no logger here
         self.coordinator = Coordinator()
         self.controller = VelocityController()
         self.t = 0.0
@@ -119,14 +133,15 @@ class IctineuStack:
         if b is None:
             self.unknown_actions.append(action.behaviour)
             return
+        device = self.devices.get(b.switches)
         if action.kind == "enable":
             b.initialise(action.params, self.t)
-            if b.name == "StartCamera":
-                self.sensors.camera.start(self.t)
+            if device is not None:
+                device.start(self.t)
         elif action.kind == "disable":
             b.terminate(self.t)
-            if b.name == "StartCamera":
-                self.sensors.camera.stop()
+            if device is not None:
+                device.stop()
         else:
             b.configure(action.params, self.t)
 
@@ -151,8 +166,8 @@ class IctineuStack:
             self._perceive(reading)
         self._predict_to(self.t)
         p = self.perception()
-        p = self.seabed.perceive(self.t, truth, p, {n: b.active
-                                                    for n, b in self.behaviours.items()})
+        p = self.seabed.perceive(self.t, truth, p, [b.tracker for b in self.behaviours.values()
+                                                    if b.active and b.tracker])
         responses = {}
         for b in self.behaviours.values():
             if b.active:
@@ -172,7 +187,11 @@ class IctineuStack:
         self.robot.step(DT, (tau["x"], tau["y"], tau["z"], tau["yaw"]))
         self.t += DT
         self.survey.record(self.t, self.robot.state, self.navigator, self.tracker,
-                           surveying=self.behaviours["WallInspection"].active)
+                           surveying=self.surveying() is not None)
+
+    def surveying(self) -> bh.Behaviour | None:
+        """The enabled behaviour that surveys the wall (``Behaviour.surveys``), if any."""
+        return next((b for b in self.behaviours.values() if b.active and b.surveys), None)
 
     def _predict_to(self, t: float) -> None:
         if t > self.nav_t:

@@ -1,9 +1,11 @@
 """The stack's seabed vision: downward camera, the tracker the running behaviour needs, and the
 run's figures against ground truth.
 
-While ``FollowPipeline`` runs, each frame goes to Foresti's EKF (``pipeline_tracker``); while
-``FollowCable`` runs, to Wirth's Condensation filter (``cable_tracker``); while ``SearchLine``
-runs, to the feature extraction alone (a pair of edges of the width of the line last followed).
+The running behaviours say which tracker they need (``Behaviour.tracker``): while FollowPipeline
+runs ("pipeline"), each frame goes to Foresti's EKF (``pipeline_tracker``); while FollowCable
+runs ("cable"), to Wirth's Condensation filter (``cable_tracker``); while SearchLine runs
+("search"), to the feature extraction alone (a pair of edges of the width of the line last
+followed). A follower wins over a search, the pipeline over the cable.
 What the tracker sees goes to the behaviours as a :class:`behaviours.seabed.LineView` in
 ``Perception.line``. No behaviour of these on: no frames are rendered (the dam mission costs
 nothing more).
@@ -18,6 +20,7 @@ tracker placed it, and the path the vehicle followed.
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from dataclasses import dataclass, field, replace
 from typing import Any
 from xml.sax.saxutils import escape
@@ -33,7 +36,7 @@ from vehicle.perception.pipeline_tracker import FeatureExtraction, PipelineTrack
 from vehicle.world.robot import VehicleState, wrap_angle
 from vehicle.world.seabed import LaidLine, Seabed, default_scene
 
-FOLLOWERS = {"FollowPipeline": "pipeline", "FollowCable": "cable"}
+TRACKERS = ("pipeline", "cable", "search")  # what the vision runs, first wanted first
 
 
 @dataclass
@@ -82,10 +85,10 @@ class SeabedVision:
 
     # -- every tick ----------------------------------------------------------------------------
     def perceive(self, t: float, truth: VehicleState, p: Perception,
-                 active: dict[str, bool]) -> Perception:
-        mode = next((kind for name, kind in FOLLOWERS.items() if active.get(name)), None)
-        if mode is None and active.get("SearchLine"):
-            mode = "search"
+                 wanted: Collection[str]) -> Perception:
+        """``p`` with the line as the tracker ``wanted`` by the enabled behaviours sees it
+        (the first of :data:`TRACKERS` among them; none: ``p`` as it is, nothing rendered)."""
+        mode = next((kind for kind in TRACKERS if kind in wanted), None)
         if mode != self.mode:
             self._switch(mode, t, p)
         if mode is None:

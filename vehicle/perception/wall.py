@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vehicle.world.robot import wrap_angle
-from vehicle.sensors.instruments import SonarBeam  # one beam of the MSIS (vehicle/sensors/instruments.py)
+from vehicle.sensors.readings import SonarBeam  # one beam of the MSIS (vehicle/sensors/instruments.py)
 
 FloatArray = NDArray[np.float64]
 

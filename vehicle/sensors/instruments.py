@@ -1,8 +1,8 @@
 """The Ictineu's sensors, simulated with the accuracies of Table I (paper 002 §2, §2.2, §5, §7).
 
-Every sensor has a ``rate`` (Hz) and ``sample(t, truth, rng)`` that returns a typed reading when
-one is due at time t (s) and None otherwise; ``truth`` is the vehicle's true
-:class:`~vehicle.world.robot.VehicleState`. Due times are t0 + k/rate; a caller that steps more
+Every sensor has a ``rate`` (Hz) and ``sample(t, truth, rng)`` that returns a typed reading
+(vehicle/sensors/readings.py) when one is due at time t (s) and None otherwise; ``truth`` is
+the vehicle's true :class:`~vehicle.world.robot.VehicleState`. Due times are t0 + k/rate; a caller that steps more
 coarsely than a sensor's period gets the missed readings on the next calls at the same t
 (:meth:`Sensors.sample` collects them all).
 
@@ -26,11 +26,24 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal, Protocol
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
 
+from vehicle.sensors.readings import (
+    CameraImage,
+    DepthReading,
+    DvlReading,
+    HeadingReading,
+    HousingReading,
+    Reading,
+    Schedule,
+    Sensor,
+    SonarBeam,
+    UsblFix,
+    WallFootprint,
+)
 from vehicle.world.robot import Environment, FloatArray, VehicleState, wrap_angle
 
 # --- Table I figures and the choices made around them ----------------------------------------
@@ -75,106 +88,6 @@ def usbl_covariance(transceiver: npt.ArrayLike, position: npt.ArrayLike,
     ee = np.outer(e, e)
     cov: FloatArray = (range_fraction * rho) ** 2 * ee + (rho * angle_std) ** 2 * (np.eye(3) - ee)
     return cov
-
-
-# --- readings ---------------------------------------------------------------------------------
-@dataclass(frozen=True, slots=True)
-class DvlReading:
-    t: float
-    velocity: tuple[float, float, float] | None  # body u, v, w over ground (m/s); None: no lock
-    altitude: float  # m above the floor (true)
-    bottom_lock: bool
-
-
-@dataclass(frozen=True, slots=True)
-class HeadingReading:
-    t: float
-    heading: float  # rad, wrapped to (-pi, pi]
-
-
-@dataclass(frozen=True, slots=True)
-class DepthReading:
-    t: float
-    depth: float  # m
-
-
-@dataclass(frozen=True, eq=False)
-class UsblFix:
-    t: float
-    position: FloatArray  # world x, y, z (m)
-    covariance: FloatArray  # 3 x 3 (m^2), from the Table I accuracies at the measured position
-    slant_range: float  # m, measured
-    injected_outlier: bool  # simulation truth, not for the navigator
-
-
-@dataclass(frozen=True, eq=False)
-class SonarBeam:
-    t: float
-    bearing: float  # rad, relative to the vehicle's heading, wrapped
-    bins: FloatArray  # echo intensity 0..1 (8-bit steps); bin i: [i, i + 1) * bin_size
-    bin_size: float  # m
-
-    def ranges(self) -> FloatArray:
-        """Range of each bin's centre (m)."""
-        return (np.arange(self.bins.size, dtype=np.float64) + 0.5) * self.bin_size
-
-
-@dataclass(frozen=True, slots=True)
-class WallFootprint:
-    """Bounding box of the image on the wall (m) and the range along the optical axis."""
-
-    y_min: float
-    y_max: float
-    z_min: float
-    z_max: float
-    distance: float
-
-
-@dataclass(frozen=True, slots=True)
-class CameraImage:
-    t: float
-    index: int
-    footprint: WallFootprint | None  # None: the wall is not (entirely) within visibility
-    pose: tuple[float, float, float, float] | None = None  # true x, y, z, yaw (the rendering's)
-
-
-@dataclass(frozen=True, slots=True)
-class HousingReading:
-    t: float
-    vessel: str
-    leak: bool
-    temperature: float  # deg C
-    pressure: float  # bar
-
-
-Reading = (DvlReading | HeadingReading | DepthReading | UsblFix | SonarBeam | CameraImage
-           | HousingReading)
-
-
-class Sensor(Protocol):
-    rate: float
-
-    def sample(self, t: float, truth: VehicleState,
-               rng: np.random.Generator) -> Reading | None: ...
-
-
-class Schedule:
-    """Due times t0 + k / rate, counted (no drift from adding periods)."""
-
-    def __init__(self, rate: float, t0: float = 0.0) -> None:
-        if rate <= 0.0:
-            raise ValueError(f"rate must be > 0 Hz, got {rate}")
-        self.rate, self.t0, self.count = rate, t0, 0
-
-    def next_time(self) -> float:
-        return self.t0 + self.count / self.rate
-
-    def due(self, t: float) -> bool:
-        """True (and move on to the next due time) if a reading is due at t."""
-        if t + 1e-9 >= self.next_time():
-            self.count += 1
-            return True
-        return False
 
 
 # --- navigation sensors -----------------------------------------------------------------------

@@ -29,40 +29,10 @@ more, its clock falls behind wall time x speed (the player follows the clock it 
 Heartbeat, telemetry (rates, frames) and the sonar wall as DISTANCE_SENSOR: see
 :mod:`vehicle.servers.ardusub_telemetry`.
 
-Commands. Every COMMAND_LONG (or COMMAND_INT) for system 1 gets a COMMAND_ACK: MAV_CMD_DO_SET_MODE
-(param2 the mode number; SET_MODE messages too, acknowledged with command 11 as ArduPilot does),
-MAV_CMD_COMPONENT_ARM_DISARM (arming FAILED while an internal temperature or pressure failsafe is
-active, unless forced with param2 = 21196), MAV_CMD_SET_MESSAGE_INTERVAL, GET_MESSAGE_INTERVAL,
-REQUEST_MESSAGE, MAV_CMD_IMAGE_START_CAPTURE / IMAGE_STOP_CAPTURE (the camera, the stack's
-StartCamera), MAV_CMD_LOGGING_START / LOGGING_STOP (the stack's StartLogs); AUTO and CIRCLE (no
-mission here) FAILED; any other command UNSUPPORTED.
-
-Modes (armed; disarmed the vehicle only holds still, an approximation of idle thrusters):
-GUIDED and POSHOLD hold the position where they started; in GUIDED SET_POSITION_TARGET_LOCAL_NED
-(MAV_FRAME_LOCAL_NED) moves the hold point: position (any of x, y, z; the others kept) and yaw go
-to the stack's GoTo behaviour (its own position controller); velocities (vx, vy, vz world, with
-yaw or yaw_rate) are held for 3 s of simulated time, as ArduSub's guided velocity timeout.
-Setpoints outside GUIDED, or disarmed, or in another frame are ignored (ArduSub does so) and
-counted. SURFACE rises to the surface (the stack's Surface behaviour) and stays in SURFACE
-there. MANUAL, STABILIZE, ACRO and ALT_HOLD fly MANUAL_CONTROL (x surge, y sway, z 500 neutral,
-r yaw rate) as velocity demands.
-
-Alarms (the stack's housing sensors, faults from ``--inject FAULT@SECONDS``): STATUSTEXT
-:data:`LEAK_TEXT` ("Leak Detected", ArduSub's text), :data:`TEMPERATURE_TEXT` or
-:data:`PRESSURE_TEXT` ("Internal temperature critical!", "Internal pressure critical!", ArduSub's
-texts; above 50 degC and 1.5 bar, the stack's Alarms thresholds), severity CRITICAL, at once and
-every 5 s of simulated time while it lasts; HEARTBEAT system_status CRITICAL. ArduSub's default
-leak action is to warn only: the mission decides (its Alarms task surfaces).
-
-Failsafes, on WALL time (they watch the real link): ground station — no HEARTBEAT from system
-255 for ``--gcs-timeout`` s after one has been seen (ArduSub FS_GCS_TIMEOUT) — and pilot input —
-no MANUAL_CONTROL for ``--pilot-timeout`` s while armed (FS_PILOT_TIMEOUT). While armed either
-switches to SURFACE (ArduSub's FS_GCS_ENABLE = surface) with STATUSTEXT "MYGCS: 255, heartbeat
-lost" (WARNING) or "Lost manual control" (CRITICAL), ArduSub's texts. The vehicle stays in
-SURFACE until a ground station sets another mode; a failsafe re-arms when its input comes back.
-As ArduSub's manual warns, any heartbeat from system 255 counts: MAVProxy routing between player
-and vehicle sends its own, so through MAVProxy (without required signing, which rejects its
-unsigned heartbeats) the pilot-input failsafe is the one that notices a player gone.
+Commands, modes, guided setpoints, alarms and failsafes: the autopilot's,
+:mod:`vehicle.servers.ardusub_autopilot`. Every COMMAND_LONG (or COMMAND_INT) for system 1 gets
+a COMMAND_ACK; MAV_CMD_SET_MESSAGE_INTERVAL, GET_MESSAGE_INTERVAL and REQUEST_MESSAGE are
+answered here, from the telemetry's streams.
 
 Signing (:mod:`aal.signing`): ``--signing-key FILE`` or ``$MCL_MAVLINK_KEY``
 (64 hex digits, or a passphrase hashed as MAVProxy's ``signing setup``) signs everything sent
@@ -91,69 +61,25 @@ os.environ["MAVLINK20"] = "1"  # before pymavlink picks its dialect: MAVLink 2 o
 
 from pymavlink import mavutil  # noqa: E402
 
-import behaviours as bh  # noqa: E402
 from aal import signing  # noqa: E402
-from aal.mavlink import (  # noqa: E402
-    GCS_SYSID,
-    GCS_TEXT,
-    LEAK_TEXT,
-    MODE_NAMES,
-    MODES,
-    PILOT_TEXT,
-    PRESSURE_TEXT,
-    TEMPERATURE_TEXT,
-    VEHICLE_SYSID,
-    parse_url,
-)
-from aal.messages import ActionMessage  # noqa: E402
-from behaviours.base import clamp, to_degrees, wrap  # noqa: E402
+from aal.mavlink import GCS_SYSID, MODE_NAMES, MODES, VEHICLE_SYSID, parse_url  # noqa: E402
+# the autopilot's texts, as the tests and the docs look them up here
+from aal.mavlink import GCS_TEXT as GCS_TEXT  # noqa: E402
+from aal.mavlink import LEAK_TEXT as LEAK_TEXT  # noqa: E402
+from aal.mavlink import PILOT_TEXT as PILOT_TEXT  # noqa: E402
 from vehicle.control.stack import DT, IctineuStack, StackConfig  # noqa: E402
 
+from vehicle.servers.ardusub_autopilot import ACCEPTED, DENIED, FAILED, ArduSubAutopilot  # noqa: E402
 from vehicle.servers.ardusub_telemetry import STREAMS, Streams, Telemetry  # noqa: E402
 
 log = logging.getLogger(__name__)
 mav = mavutil.mavlink
 
 SYSID, COMPID = VEHICLE_SYSID, mav.MAV_COMP_ID_AUTOPILOT1
-ACCEPTED, DENIED, FAILED, UNSUPPORTED = (int(mav.MAV_RESULT_ACCEPTED), int(mav.MAV_RESULT_DENIED),
-                                         int(mav.MAV_RESULT_FAILED),
-                                         int(mav.MAV_RESULT_UNSUPPORTED))
-PILOT_MODES = {MODES[m] for m in ("MANUAL", "STABILIZE", "ACRO", "ALT_HOLD")}
-HOLD_MODES = {MODES["GUIDED"], MODES["POSHOLD"]}
-UNAVAILABLE_MODES = {MODES["AUTO"], MODES["CIRCLE"]}  # no mission, no circle here
-FORCE_ARM = 21196  # param2 of MAV_CMD_COMPONENT_ARM_DISARM that skips the arming checks
-
-ALARM_REPEAT = 5.0  # simulated s between repeats of an alarm's STATUSTEXT
-MAX_TEMPERATURE = 50.0  # degC (FS_TEMP_MAX; the stack's Alarms default)
-MAX_PRESSURE = 1.5  # bar inside the vessel (FS_PRESS_MAX; the stack's Alarms default)
-
-GUIDED_VELOCITY_TIMEOUT = 3.0  # simulated s a velocity setpoint lasts
-PILOT_SPEED, PILOT_YAW_RATE = 0.4, 0.3  # m/s and rad/s at full stick
 MAX_SLEEP = 0.01  # wall s: the loop looks at its inbox at least this often
 SAVE_PERIOD = 5.0  # wall s between saves of the signing timestamp
-MOTION = ("GoTo", "WallInspection", "AchieveHeadDist", "Surface", "Velocity")
-
-
-class Velocity(bh.Behaviour):
-    """Velocity demands from outside the stack: guided velocity setpoints (world frame, for a
-    few seconds) or the pilot's sticks (body frame). ArduSub's own, so not in the task library."""
-
-    name = "Velocity"
-    drives = ("x", "y", "z", "yaw")
-
-    def on_update(self, p: bh.Perception) -> bh.Response:
-        since = self.param("t", p.t)
-        if "timeout" in self.params and p.t - since > self.param("timeout", 0.0):
-            return bh.Response({dof: 0.0 for dof in bh.DOFS})
-        vx, vy, vz = (self.param(k, 0.0) for k in ("vx", "vy", "vz"))
-        if self.params.get("frame") == "world":  # world x, y into the body frame
-            c, s = math.cos(p.psi), math.sin(p.psi)
-            vx, vy = c * vx + s * vy, -s * vx + c * vy
-        if "yaw" in self.params:  # hold a heading rather than a rate
-            rate = clamp(0.4 * wrap(self.angle("yaw", 0.0) - p.psi), 0.3)
-        else:
-            rate = self.param("yaw_rate", 0.0)
-        return bh.Response({"x": vx, "y": vy, "z": vz, "yaw": rate})
+STREAM_COMMANDS = (mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAV_CMD_GET_MESSAGE_INTERVAL,
+                   mav.MAV_CMD_REQUEST_MESSAGE)
 
 
 def check_url(url: str) -> str:
@@ -169,9 +95,10 @@ def check_url(url: str) -> str:
     return url
 
 
-class ArduSubVehicle:
-    """The simulated stack behind an ArduSub-like MAVLink endpoint. :meth:`run` blocks until
-    ``stop`` is set. One reader thread queues what arrives; the loop applies it between ticks."""
+class ArduSubVehicle(ArduSubAutopilot):
+    """The simulated stack and its ArduSub-like autopilot behind a MAVLink endpoint. :meth:`run`
+    blocks until ``stop`` is set. One reader thread queues what arrives; the loop applies it
+    between ticks."""
 
     def __init__(self, url: str, *, speed: float = 10.0, seed: int = 1,
                  faults: Iterable[tuple[str, float]] = (), gcs_timeout: float = 3.0,
@@ -181,28 +108,19 @@ class ArduSubVehicle:
                  ready: threading.Event | None = None) -> None:
         if not speed > 0:
             raise ValueError("speed must be positive")
+        super().__init__(IctineuStack(StackConfig(seed=seed, faults=list(faults))),
+                         gcs_timeout=gcs_timeout, pilot_timeout=pilot_timeout)
         self.url, self.speed = url, float(speed)
-        self.gcs_timeout, self.pilot_timeout = gcs_timeout, pilot_timeout
         self.wait_for_gcs = wait_for_gcs
         self.signing_key, self.require_signing = signing_key, require_signing
         self.stop = stop or threading.Event()
         self.ready = ready or threading.Event()
-        self.stack = IctineuStack(StackConfig(seed=seed, faults=list(faults)))
-        self.stack.behaviours["Velocity"] = Velocity()
         self.streams = Streams(STREAMS)
         self.telemetry = Telemetry(self)
-        self.mode, self.armed = MODES["MANUAL"], False
         self.conn: Any = None
         self.signing: signing.SigningState | None = None
         self._inbox: queue.Queue[Any] = queue.Queue()
         self._send_lock = threading.Lock()
-        self._seq = 0
-        self.gcs_heard: float | None = None  # wall (monotonic) time of the last GCS heartbeat
-        self.pilot_heard: float | None = None  # ... of the last MANUAL_CONTROL
-        self.armed_at = 0.0
-        self.failsafe = {"gcs": False, "pilot": False}
-        self.alarm_sent: dict[str, float] = {}  # alarm -> simulated time of its last text
-        self.counts = {"commands": 0, "setpoints": 0, "setpoints_ignored": 0}
         self._last_heartbeat = -math.inf  # wall
 
     # -- sending (serialised) -------------------------------------------------------------------
@@ -277,11 +195,11 @@ class ArduSubVehicle:
         while not self.stop.is_set():
             self._handle_inbox()
             now = time.monotonic()
-            self._check_failsafes(now)
+            self.check_failsafes(now)
             if stack.t + DT <= t0 + (now - wall0) * self.speed:  # a tick is due
                 for event in stack.due(stack.t + DT):
                     log.debug("stack event %s", event.event)
-                self._check_alarms()
+                self.check_alarms()
                 for name in self.streams.due(stack.t):
                     self.telemetry.send(name)
             else:
@@ -318,13 +236,7 @@ class ArduSubVehicle:
     def _on_manual_control(self, msg: Any) -> None:
         if msg.target != SYSID:
             return
-        self.pilot_heard = time.monotonic()
-        self.failsafe["pilot"] = False
-        if self.armed and self.mode in PILOT_MODES:
-            sticks = {"vx": msg.x / 1000 * PILOT_SPEED, "vy": msg.y / 1000 * PILOT_SPEED,
-                      "vz": -(msg.z - 500) / 500 * PILOT_SPEED,
-                      "yaw_rate": msg.r / 1000 * PILOT_YAW_RATE}
-            self._action("configure", "Velocity", {"frame": "body", **sticks})
+        self.pilot(msg.x, msg.y, msg.z, msg.r)
 
     def _on_set_mode(self, msg: Any) -> None:
         if msg.target_system != SYSID:
@@ -364,137 +276,16 @@ class ArduSubVehicle:
         "SET_POSITION_TARGET_LOCAL_NED": _on_setpoint,
     }
 
-    # -- commands, modes and setpoints ----------------------------------------------------------
+    # -- the streams' commands (the others are the autopilot's) ---------------------------------
     def command(self, command: int, p: list[float]) -> int:
         """Carry out one command; its MAV_RESULT."""
-        if command == mav.MAV_CMD_DO_SET_MODE:
-            return self.set_mode(int(p[1]))
-        if command == mav.MAV_CMD_COMPONENT_ARM_DISARM:
-            return self.arm(p[0] == 1, force=int(p[1]) == FORCE_ARM)
         if command == mav.MAV_CMD_SET_MESSAGE_INTERVAL:
             ok = self.streams.set(int(p[0]), p[1])
             return ACCEPTED if ok else FAILED
-        if command in (mav.MAV_CMD_GET_MESSAGE_INTERVAL, mav.MAV_CMD_REQUEST_MESSAGE):
+        if command in STREAM_COMMANDS:  # GET_MESSAGE_INTERVAL, REQUEST_MESSAGE
             ok = int(p[0]) in self.streams.ids
             return ACCEPTED if ok else FAILED
-        switches = {mav.MAV_CMD_IMAGE_START_CAPTURE: ("enable", "StartCamera"),
-                    mav.MAV_CMD_IMAGE_STOP_CAPTURE: ("disable", "StartCamera"),
-                    mav.MAV_CMD_LOGGING_START: ("enable", "StartLogs"),
-                    mav.MAV_CMD_LOGGING_STOP: ("disable", "StartLogs")}
-        if command in switches:
-            kind, behaviour = switches[command]
-            if (kind == "enable") != self.stack.behaviours[behaviour].active:
-                self._action(kind, behaviour, {})
-            return ACCEPTED
-        return UNSUPPORTED
-
-    def set_mode(self, number: int) -> int:
-        if number not in MODE_NAMES or number in UNAVAILABLE_MODES:
-            return FAILED
-        log.info("mode %s", MODE_NAMES[number])
-        self.mode = number
-        self._apply_mode()
-        return ACCEPTED
-
-    def arm(self, arm: bool, *, force: bool = False) -> int:
-        if arm and not self.armed:
-            h = self.stack.housing
-            if not force and (h["temperature"] > MAX_TEMPERATURE or h["pressure"] > MAX_PRESSURE):
-                return FAILED  # ArduSub's arming checks
-            self.armed_at = time.monotonic()
-            self.failsafe["pilot"] = False
-        if arm != self.armed:
-            self.armed = arm
-            self._apply_mode()
-        return ACCEPTED
-
-    def _apply_mode(self) -> None:
-        """Switch the stack's behaviours to what the mode does (nothing moves disarmed)."""
-        for name in MOTION:
-            if self.stack.behaviours[name].active:
-                self._action("disable", name, {})
-        if not self.armed:
-            return
-        p = self.stack.perception()
-        if self.mode == MODES["SURFACE"]:
-            self._action("enable", "Surface", {})
-        elif self.mode in HOLD_MODES:
-            self._action("enable", "GoTo", {"x": p.x, "y": p.y, "z": p.z,
-                                            "yaw": to_degrees(p.psi), "tolerance": 0.0})
-        elif self.mode in PILOT_MODES:
-            self._action("enable", "Velocity", {"frame": "body"})
-
-    def guided_setpoint(self, mask: int, position: tuple[float, float, float],
-                        velocity: tuple[float, float, float], yaw: float,
-                        yaw_rate: float) -> None:
-        """SET_POSITION_TARGET_LOCAL_NED in GUIDED: a position (GoTo) or a velocity."""
-        bits = mav.POSITION_TARGET_TYPEMASK_X_IGNORE, mav.POSITION_TARGET_TYPEMASK_Y_IGNORE, \
-            mav.POSITION_TARGET_TYPEMASK_Z_IGNORE
-        vbits = mav.POSITION_TARGET_TYPEMASK_VX_IGNORE, mav.POSITION_TARGET_TYPEMASK_VY_IGNORE, \
-            mav.POSITION_TARGET_TYPEMASK_VZ_IGNORE
-        use_yaw = not mask & mav.POSITION_TARGET_TYPEMASK_YAW_IGNORE
-        use_rate = not mask & mav.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
-        values = [*position, *velocity, yaw, yaw_rate]
-        if not all(math.isfinite(v) for v in values):
-            self.counts["setpoints_ignored"] += 1
-            return
-        goto = self.stack.behaviours["GoTo"]
-        if all(mask & b for b in bits) and not all(mask & b for b in vbits):
-            params: dict[str, Any] = {"frame": "world", "t": self.stack.t,
-                                      "timeout": GUIDED_VELOCITY_TIMEOUT}
-            params.update({k: v for k, v, b in zip(("vx", "vy", "vz"), velocity, vbits)
-                           if not mask & b})
-            if use_yaw:
-                params["yaw"] = to_degrees(yaw)
-            elif use_rate:
-                params["yaw_rate"] = yaw_rate
-            if goto.active:
-                self._action("disable", "GoTo", {})
-            self._action("enable", "Velocity", params)
-            return
-        p = self.stack.perception()
-        target = dict(goto.params) if goto.active else {
-            "x": p.x, "y": p.y, "z": p.z, "yaw": to_degrees(p.psi)}
-        target.update({k: v for k, v, b in zip("xyz", position, bits) if not mask & b})
-        if use_yaw:
-            target["yaw"] = to_degrees(yaw)
-        target["tolerance"] = 0.0
-        if self.stack.behaviours["Velocity"].active:
-            self._action("disable", "Velocity", {})
-        self._action("enable", "GoTo", target)
-
-    def _action(self, kind: str, behaviour: str, params: dict[str, Any]) -> None:
-        self._seq += 1
-        t = self.stack.t
-        self.stack.on_action(ActionMessage(self._seq, t, "ardusub", MODE_NAMES[self.mode], kind,
-                                           behaviour, params), t)
-
-    # -- failsafes and alarms --------------------------------------------------------------------
-    def _check_failsafes(self, now: float) -> None:
-        gcs, pilot = self.gcs_heard, max(self.pilot_heard or 0.0, self.armed_at)
-        if gcs is not None and not self.failsafe["gcs"] and now - gcs > self.gcs_timeout:
-            self.failsafe["gcs"] = True
-            self.text(mav.MAV_SEVERITY_WARNING, GCS_TEXT)
-            if self.armed:
-                self.set_mode(MODES["SURFACE"])
-        if self.armed and not self.failsafe["pilot"] and now - pilot > self.pilot_timeout:
-            self.failsafe["pilot"] = True
-            self.text(mav.MAV_SEVERITY_CRITICAL, PILOT_TEXT)
-            self.set_mode(MODES["SURFACE"])
-
-    def alarms(self) -> dict[str, bool]:
-        h = self.stack.housing
-        return {LEAK_TEXT: bool(h["leak"]), TEMPERATURE_TEXT: h["temperature"] > MAX_TEMPERATURE,
-                PRESSURE_TEXT: h["pressure"] > MAX_PRESSURE}
-
-    def _check_alarms(self) -> None:
-        t = self.stack.t
-        for text, on in self.alarms().items():
-            if not on:
-                self.alarm_sent.pop(text, None)
-            elif t - self.alarm_sent.get(text, -math.inf) >= ALARM_REPEAT - 1e-9:
-                self.text(mav.MAV_SEVERITY_CRITICAL, text, repeat=text in self.alarm_sent)
-                self.alarm_sent[text] = t
+        return super().command(command, p)
 
     # -- the end --------------------------------------------------------------------------------
     def summary(self) -> list[str]:

@@ -16,7 +16,7 @@ from xml.sax.saxutils import escape
 import numpy as np
 
 from vehicle.world.robot import Environment, VehicleState, wrap_angle
-from vehicle.sensors.instruments import CameraImage, UsblFix
+from vehicle.sensors.readings import CameraImage, UsblFix
 
 CELL = 0.05  # m, the grid on which imaged wall area is counted
 

@@ -1,6 +1,11 @@
 """Commands to the vehicle (COMMAND_LONG) with their retries: mode switching, arming, the
 camera's and the logger's start and stop, the telemetry streams asked for.
 
+A behaviour that switches a device (``Behaviour.switches``, behaviours/base.py) is that
+device's start and stop command (:data:`DEVICES`): StartCamera the camera's, StartLogs the
+logger's, and any behaviour registered since that switches one of them (:data:`COMMANDS`, a
+view of the registry).
+
 A command without its COMMAND_ACK is sent again after ``ACK_TIMEOUT`` wall s with the next
 ``confirmation``, at most ``ACK_TRIES`` times (the reader thread calls :meth:`Commands.retry`);
 MAV_RESULT_IN_PROGRESS keeps it waiting. Thread-safe: the player's thread sends, the reader
@@ -12,13 +17,14 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from aal.mavlink import MODES, VEHICLE_SYSID
+from behaviours import registry
 
 log = logging.getLogger(__name__)
 
@@ -26,11 +32,33 @@ VEHICLE_COMPID = mavlink.MAV_COMP_ID_AUTOPILOT1
 ACK_TIMEOUT = 0.5  # wall s before a command without COMMAND_ACK is sent again
 ACK_TRIES = 3
 
-# the behaviours that are a command to the vehicle: (behaviour, action) -> MAV_CMD
-COMMANDS = {("StartCamera", "enable"): mavlink.MAV_CMD_IMAGE_START_CAPTURE,
-            ("StartCamera", "disable"): mavlink.MAV_CMD_IMAGE_STOP_CAPTURE,
-            ("StartLogs", "enable"): mavlink.MAV_CMD_LOGGING_START,
-            ("StartLogs", "disable"): mavlink.MAV_CMD_LOGGING_STOP}
+# the devices ArduSub starts and stops by command: device -> (start, stop) MAV_CMD
+DEVICES = {"camera": (mavlink.MAV_CMD_IMAGE_START_CAPTURE, mavlink.MAV_CMD_IMAGE_STOP_CAPTURE),
+           "logs": (mavlink.MAV_CMD_LOGGING_START, mavlink.MAV_CMD_LOGGING_STOP)}
+
+
+class DeviceCommands(Mapping[tuple[str, str], int]):
+    """The behaviours that are a command to the vehicle: (behaviour, "enable" or "disable") ->
+    MAV_CMD, read from the registry at each look-up (a behaviour registered later is in)."""
+
+    def _table(self) -> dict[tuple[str, str], int]:
+        table: dict[tuple[str, str], int] = {}
+        for device, (start, stop) in DEVICES.items():
+            for name in registry.switching(device):
+                table[name, "enable"], table[name, "disable"] = start, stop
+        return table
+
+    def __getitem__(self, key: tuple[str, str]) -> int:
+        return self._table()[key]
+
+    def __iter__(self) -> Iterator[tuple[str, str]]:
+        return iter(self._table())
+
+    def __len__(self) -> int:
+        return len(self._table())
+
+
+COMMANDS = DeviceCommands()
 
 
 @dataclass

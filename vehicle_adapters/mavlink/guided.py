@@ -1,7 +1,11 @@
 """The behaviours the adapter runs on ArduSub's GUIDED mode, merged by the one coordinator.
 
-Each position of the vehicle (LOCAL_POSITION_NED) ticks the enabled behaviours
-(vehicle_adapters/mavlink/behaviours.py) with what they perceive; the coordinator
+The adapter runs one of each registered behaviour that has a position law
+(``Behaviour.on_setpoints``, behaviours/base.py: the shared classes of behaviours/motion.py and
+behaviours/sensing.py, and any registered since with one): a new behaviour with a position law
+runs over MAVLink with no file of this package edited. Each position of the vehicle
+(LOCAL_POSITION_NED) ticks the enabled ones' position laws with what they perceive
+(vehicle_adapters/mavlink/telemetry.py); the coordinator
 (behaviours/coordinator.py) gives each degree of freedom to the highest-priority one that asks
 for it, and a free one holds its last value. The merged target goes out as a
 SET_POSITION_TARGET_LOCAL_NED (position and yaw) when it moves (at most every
@@ -17,12 +21,13 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from aal.mavlink import VEHICLE_SYSID
+from behaviours import registry
 from behaviours.base import DOFS, Behaviour, Perception, Response
 from behaviours.coordinator import Coordinator
 
-from vehicle_adapters.mavlink.behaviours import ALL
 from vehicle_adapters.mavlink.commands import VEHICLE_COMPID
 
+SURFACING = "Surface"  # the behaviour ArduSub has as a mode of its own, SURFACE
 POSITION_AND_YAW = 0b1001_1111_1000  # type_mask: ignore velocity, acceleration, yaw rate
 SETPOINT_PERIOD = 0.5  # vehicle s between setpoints while a target moves
 SETPOINT_REFRESH = 2.0  # vehicle s: a constant target is sent again this often (UDP)
@@ -31,19 +36,23 @@ Event = tuple[str, str, dict[str, Any]]  # (behaviour, event, data)
 
 
 class Guided:
-    """The adapter's behaviours (one of each in :data:`ALL`, by name), their coordinator, and
-    the last setpoint. Not thread-safe: the adapter calls it with its lock held."""
+    """The adapter's behaviours (one of each registered with a position law, by name), their
+    coordinator, and the last setpoint. Not thread-safe: the adapter calls it with its lock
+    held."""
 
     def __init__(self) -> None:
+        offered = registry.with_position_law()
         self.behaviours: dict[str, Behaviour] = {  # ticked in order of priority
-            cls.name: cls() for cls in sorted(ALL, key=lambda c: -c.priority)}
+            cls.name: cls() for cls in sorted(offered, key=lambda c: -c.priority)}
         self.coordinator = Coordinator()
         self.hold: dict[str, float] = {}  # the last setpoint, per degree of freedom
         self.setpoint_at = -math.inf  # vehicle time of the last setpoint
 
     @property
     def surfacing(self) -> bool:
-        return self.behaviours["Surface"].active
+        """ArduSub's SURFACE mode is on the mission's behalf (its Surface behaviour enabled)."""
+        surface = self.behaviours.get(SURFACING)
+        return surface is not None and surface.active
 
     def on(self) -> list[str]:
         """The behaviours enabled, by name."""
@@ -82,7 +91,7 @@ class Guided:
         """Update the enabled behaviours: their events, in priority order, and the
         SET_POSITION_TARGET_LOCAL_NED to send (None: none now)."""
         on = [b for b in self.behaviours.values() if b.active]
-        responses: dict[str, Response] = {b.name: b.update(p) for b in on}
+        responses: dict[str, Response] = {b.name: b.update_setpoints(p) for b in on}
         events = [e for b in on for e in self.events(b.name)]
         self.coordinator.merge(responses)
         if self.surfacing or not any(b.drives for b in on):

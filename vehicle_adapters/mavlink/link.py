@@ -1,16 +1,18 @@
-"""The MAVLink adapter (AAL.md): the player on one side, an ArduSub-class vehicle on the other.
+"""The MAVLink adapter (docs/AAL.md): the player on one side, an ArduSub-class vehicle on the
+other.
 
     with MavlinkVehicle("udpin:127.0.0.1:14550") as vehicle: run(player, vehicle, ...)
 
 The player's Vehicle (``send``, ``receive``, ``now``, ``lost``, ``declaration``), tying
-together one concern a module: mavlink_connection (the connection, its ONE reader thread and
-the ground station's streams), mavlink_commands (retries, modes, arming), mavlink_telemetry
-(what the behaviours perceive), mavlink_failsafe (link health, take-over), mavlink_guided and
-mavlink_behaviours (the shared behaviours with ArduSub's control laws, one coordinator).
+together one concern a module of this package: ``connection`` (the connection, its ONE reader
+thread and the ground station's streams), ``commands`` (retries, modes, arming, the devices'
+commands), ``telemetry`` (what the behaviours perceive), ``failsafe`` (link health, take-over),
+``guided`` (the registered behaviours' position laws on GUIDED setpoints, one coordinator).
 
 Entering opens the connection, starts the reader, waits (bounded) for the vehicle's
 HEARTBEAT, asks for the telemetry it needs, sets GUIDED and arms. The behaviours map onto
-GUIDED setpoints, the SURFACE mode, commands (StartCamera, StartLogs) and STATUSTEXT
+GUIDED setpoints (every registered behaviour with a position law), the SURFACE mode, commands
+(the behaviours that switch a device: StartCamera, StartLogs) and STATUSTEXT
 (docs/MAVLINK.md).
 
 Clock: every ``time_boot_ms`` the vehicle sends is its (simulated) clock; ``now()`` is the last
@@ -149,10 +151,10 @@ class MavlinkVehicle(RemoteVehicle):
             log.info("MAVLink link closed: %s", self.summary())
 
     def declaration(self) -> Declaration:
-        """What this adapter can make an ArduSub-class vehicle do: the Ictineu task library's
-        declarations of the behaviours it maps (its own and the commands')."""
+        """What this adapter can make an ArduSub-class vehicle do: the registry's declarations
+        of the behaviours it maps (those with a position law, and the devices' commands)."""
         names = set(self.guided.behaviours) | {name for name, _ in COMMANDS}
-        return capabilities.ictineu(f"mavlink:{self.url} (an ArduSub-class vehicle)", names)
+        return capabilities.registered(f"mavlink:{self.url} (an ArduSub-class vehicle)", names)
 
     def confirm_off(self, names: list[str], timeout: float) -> str:
         """Wait (at most ``timeout`` wall s) for the COMMAND_ACK of every command sent (the

@@ -1,11 +1,13 @@
-"""The vehicle's telemetry, decoded into what the behaviours perceive (AAL.md, MAVLINK.md).
+"""The vehicle's telemetry, decoded into what the behaviours perceive (docs/AAL.md,
+docs/MAVLINK.md).
 
 The adapter asks for the streams in :data:`RATES` (MAV_CMD_SET_MESSAGE_INTERVAL) and stops
 those it does not use. :class:`Telemetry` keeps the last of each (the local NED frame = the
 mission's world frame): LOCAL_POSITION_NED, ATTITUDE's yaw, DISTANCE_SENSOR's wall (distance
 and the bearing of its normal, quaternion with MAV_SENSOR_ROTATION_CUSTOM), the alarms
 ArduSub says in STATUSTEXT and the internal barometer (SCALED_PRESSURE).
-:func:`perceive` turns it into an :class:`ArduSubPerception`.
+:func:`perceive` turns it into the :class:`behaviours.base.Perception` the behaviours' position laws
+read (with the wall's foot and the autopilot's alarms).
 """
 
 from __future__ import annotations
@@ -18,9 +20,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from behaviours.base import wrap
-
-from vehicle_adapters.mavlink.behaviours import ArduSubPerception
+from behaviours.base import Perception, wrap
 
 log = logging.getLogger(__name__)
 
@@ -107,12 +107,12 @@ class Telemetry:
         self.temperature, self.pressure = msg.temperature / 100, msg.press_abs / 1000
 
 
-def perceive(tel: Telemetry) -> ArduSubPerception:
+def perceive(tel: Telemetry) -> Perception:
     """What the behaviours perceive of the telemetry (psi = yaw; the wall's heading relative
     to its normal and the normal's world direction from DISTANCE_SENSOR's bearing; a
     barometer reading not sent is NaN)."""
     seen = tel.wall_distance is not None
-    return ArduSubPerception(
+    return Perception(
         t=tel.t, x=tel.x, y=tel.y, z=tel.z, psi=tel.yaw, wall_distance=tel.wall_distance,
         wall_heading=-tel.wall_bearing if seen else None,
         wall_normal=tel.yaw + tel.wall_bearing if seen else None,

@@ -419,3 +419,47 @@ def test_mcl_run_refuses_a_bad_inject(tmp_path: Path, inject: str) -> None:
     no_traceback(result)
     assert f"--inject {inject}" in result.stderr and "leak@600" in result.stderr
     assert not log.exists()  # refused before anything ran
+
+
+# --- what the stack does for a behaviour, read of its class -----------------------------------
+class Snap(bh.Behaviour):
+    name = "Snap"
+    switches = "camera"
+
+
+class Sweep(bh.Behaviour):
+    name = "Sweep"
+    drives = ("y",)
+    surveys = True
+
+
+class Look(bh.Behaviour):
+    name = "Look"
+    tracker = "cable"
+
+
+def test_the_stack_reads_a_new_behaviour_s_hooks_of_its_class() -> None:
+    for cls in (Snap, Sweep, Look):  # registered while the stack is made, then taken out
+        bh.registry.register(cls)
+    try:
+        stack = IctineuStack(StackConfig(seed=1))
+    finally:
+        for cls in (Snap, Sweep, Look):
+            bh.registry.unregister(cls.name)
+
+    def act(kind: str, name: str) -> None:
+        stack.on_action(ActionMessage(1, stack.t, "test", "test", kind, name, {}), stack.t)
+
+    act("enable", "Snap")  # a second behaviour that switches the camera
+    assert stack.sensors.camera.on
+    act("disable", "Snap")
+    assert not stack.sensors.camera.on
+    assert stack.surveying() is None
+    act("enable", "Sweep")  # a wall survey of another name
+    assert stack.surveying() is stack.behaviours["Sweep"]
+    act("enable", "Look")  # the seabed vision runs the tracker it asks for
+    stack.due(stack.t + DT)
+    assert stack.seabed.mode == "cable"
+    act("disable", "Look")
+    stack.due(stack.t + DT)
+    assert stack.seabed.mode is None

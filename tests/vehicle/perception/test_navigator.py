@@ -16,15 +16,8 @@ import pytest
 
 from vehicle.perception.navigator import CHI2_3DOF, Navigator, NavigatorNoise
 from vehicle.world.robot import Environment, Ictineu, VehicleState, wrap_angle
-from vehicle.sensors.instruments import (
-    DepthReading,
-    DvlReading,
-    HeadingReading,
-    Sensors,
-    Usbl,
-    UsblFix,
-    usbl_covariance,
-)
+from vehicle.sensors.instruments import Sensors, Usbl, usbl_covariance
+from vehicle.sensors.readings import DepthReading, DvlReading, HeadingReading, UsblFix
 
 CHI2_8DOF_99 = 20.090
 

@@ -22,11 +22,11 @@ from vehicle.sensors.instruments import (
     Msis,
     PressureSensor,
     Sensors,
-    SonarBeam,
     Usbl,
     dvl_std,
     usbl_covariance,
 )
+from vehicle.sensors.readings import SonarBeam
 
 QUIET = IctineuParams(disturbance_std=(0.0, 0.0, 0.0, 0.0))
 FAR = Environment(floor_depth=200.0)
