@@ -3,7 +3,7 @@
 # make check  — lint (ruff) and type-check (mypy)
 # make bench  — benchmarks (figures, not pass/fail)
 PYTHON ?= python3
-PACKAGES := app mcl petri mosaic vehicle_adapters vehicle behaviours aal diagnostics
+PACKAGES := app mission mcl petri mosaic vehicle_adapters vehicle behaviours aal diagnostics
 VENV   := .venv
 BIN    := $(VENV)/bin
 PIP_INSTALL := $(BIN)/python -m pip --disable-pip-version-check --quiet install

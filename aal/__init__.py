@@ -1,4 +1,4 @@
-"""The architecture abstraction layer (AAL.md): what crosses between the player and a vehicle.
+"""The architecture abstraction layer (docs/AAL.md): what crosses between the player and a vehicle.
 
 The bottom of the vehicle side of the tree: the messages (actions out, events in, a vehicle's
 declaration of what it can do) and what both ends of each transport agree on (the Zenoh key

@@ -1,4 +1,4 @@
-"""The architecture abstraction layer (AAL.md): actions out, events in, as versioned JSON.
+"""The architecture abstraction layer (docs/AAL.md): actions out, events in, as versioned JSON.
 
 An action is an order from the player to the vehicle: enable, disable or configure one
 behaviour. An event is a fact from the vehicle (``GoTo.reached``). Both are small JSON objects

@@ -1,4 +1,4 @@
-"""What both ends of a Zenoh link agree on (AAL.md): the key layout, the one place a
+"""What both ends of a Zenoh link agree on (docs/AAL.md): the key layout, the one place a
 configuration is built, endpoint and name checks, and closing a session in bounded time.
 
 Key layout (``<v>`` is the vehicle's name)::
@@ -116,7 +116,7 @@ def zenoh_error(exc: BaseException) -> str:
 
 
 def keys(vehicle: str) -> dict[str, str]:
-    """The key expressions of one vehicle (AAL.md's suggested layout)."""
+    """The key expressions of one vehicle (docs/AAL.md's suggested layout)."""
     base = f"mcl/{vehicle}"
     return {"action": f"{base}/aal/action", "event": f"{base}/aal/event",
             "clock": f"{base}/telemetry/clock", "telemetry": f"{base}/telemetry",

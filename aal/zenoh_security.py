@@ -1,4 +1,4 @@
-"""Securing the Zenoh link: who may connect, and who may publish actions (AAL.md, ZENOH_SECURITY.md).
+"""Securing the Zenoh link: who may connect, and who may publish actions (docs/AAL.md, ZENOH_SECURITY.md).
 
 Three roles share one link. The **vehicle** listens and holds the keys to the door: the list of
 accepted users (a Zenoh ``dictionary_file`` of ``user:password`` lines) and/or the certificate

@@ -1,5 +1,5 @@
 """``mcl check``: compile and verify missions, exactly as ``mclc`` does (same options, same
-report, same exit statuses: see ``app/mclc.py`` and README, "mclc")."""
+report, same exit statuses: ``app/mclc.py``, README "mclc", docs/EXIT.md)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,7 @@
 """How ``mcl run`` and ``mcl replay`` end on what they did not expect: invalid input is one
-line and exit 2, Ctrl-C exit 130, a bug of ours exit 3 with a hint (a traceback with
-``--debug``). A closed standard output is the dispatcher's (``app/mcl.py``)."""
+line, Ctrl-C is a signal, a bug of ours is said with a hint (a traceback with ``--debug``);
+their exit statuses: docs/EXIT.md. A closed standard output is the dispatcher's
+(``app/mcl.py``)."""
 
 from __future__ import annotations
 
@@ -10,9 +11,7 @@ import traceback
 from collections.abc import Callable
 
 from diagnostics import MclError
-
-
-EXIT_INVALID, EXIT_INTERNAL = 2, 3
+from mission.exits import Exit, signalled
 
 
 def guarded(command: str, debug: bool, body: Callable[[], int]) -> int:
@@ -21,10 +20,10 @@ def guarded(command: str, debug: bool, body: Callable[[], int]) -> int:
         return body()
     except KeyboardInterrupt:  # Ctrl-C before the mission started (or after it ended)
         print(f"mcl {command}: interrupted", file=sys.stderr)
-        return 128 + signal.SIGINT
+        return signalled(signal.SIGINT)
     except MclError as exc:  # OutputError among them: its format() is its one line and hint
         print(exc.format(), file=sys.stderr)
-        return EXIT_INVALID
+        return Exit.INVALID
     except BrokenPipeError:
         raise
     except Exception as exc:  # a bug of ours: say so plainly
@@ -32,4 +31,4 @@ def guarded(command: str, debug: bool, body: Callable[[], int]) -> int:
             traceback.print_exc()
         print(f"mcl {command}: internal error: {type(exc).__name__}: {exc}\n"
               "  hint: this is a bug in mcl; rerun with --debug and report it", file=sys.stderr)
-        return EXIT_INTERNAL
+        return Exit.INTERNAL

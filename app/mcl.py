@@ -8,7 +8,7 @@
     mcl mosaic RUN.jsonl ...                           app/mosaic.py
 
 Each module's ``main(argv)`` takes what follows the subcommand and returns the exit status
-(README). A standard output closed under a command (``mcl ... | head -1``) ends it quietly.
+(docs/EXIT.md). A standard output closed under a command (``mcl ... | head -1``) ends it quietly.
 """
 
 from __future__ import annotations
@@ -18,6 +18,8 @@ import importlib
 import sys
 from collections.abc import Callable
 from typing import cast
+
+from mission.exits import Exit
 
 COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
     "run": ("app.run", "run a mission on a vehicle"),
@@ -50,12 +52,12 @@ def main(argv: list[str] | None = None) -> int:
             command = cast(Callable[[list[str]], int], module.main)
             return command(args[1:])
         _parser().parse_args(args)  # --help, or a usage error (exit 2)
-        return 2
+        return Exit.INVALID
     except BrokenPipeError:
         from app.mclc import stdout_closed
 
         stdout_closed()
-        return 0
+        return Exit.OK
 
 
 if __name__ == "__main__":

@@ -21,9 +21,11 @@ from diagnostics import Diagnostic, MclError, Span
 from mcl import ast
 from mcl.api import Compiled, compile_file, parse_params
 
-EXIT_OK, EXIT_PROPERTY, EXIT_INVALID, EXIT_INTERNAL, EXIT_UNDECIDED = 0, 1, 2, 3, 4
+from mission.exits import Exit  # the exit statuses of every command: docs/EXIT.md
+
+EXIT_OK, EXIT_PROPERTY, EXIT_INVALID, EXIT_INTERNAL, EXIT_UNDECIDED = (
+    int(Exit.OK), int(Exit.FAILED), int(Exit.INVALID), int(Exit.INTERNAL), int(Exit.UNDECIDED))
 SEVERITY = [EXIT_OK, EXIT_UNDECIDED, EXIT_PROPERTY, EXIT_INVALID, EXIT_INTERNAL]  # worst last
-AUTO_LIMIT = 300_000  # estimated markings above which --method auto goes structural
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -45,6 +47,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="write the net with each task collapsed to one node (paper Fig. 5)")
     p.add_argument("--pnml", metavar="FILE", help="write the net as PNML (ISO/IEC 15909-2)")
     p.add_argument("--net-json", metavar="FILE", help="write the whole net as JSON")
+    p.add_argument("--graphml", metavar="FILE",
+                   help="write the reachability graph the explicit route verified as GraphML "
+                        "(a node per marking, an edge per firing; via networkx)")
     p.add_argument("--json", action="store_true", help="print a JSON report (= --format json)")
     p.add_argument("--format", choices=["text", "json", "junit", "sarif", "github"],
                    default=None, help="report format on standard output (default text): "
@@ -142,17 +147,22 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv: list[str] | None, so_far: list[int]) -> int:
     args = _parser().parse_args(argv)
     fmt = "json" if args.json else (args.format or "text")
-    from mcl.analysis.duration import parse_limits
+    from app.reports.duration import parse_limits
 
     try:
         args.limits = parse_limits(args.deadline, args.battery, args.reserve)
     except ValueError as exc:
         print(f"mclc: error: {exc}", file=sys.stderr)
         return EXIT_INVALID
-    outputs = [args.dot, args.dot_tasks, args.pnml, args.net_json]
+    outputs = [args.dot, args.dot_tasks, args.pnml, args.net_json, args.graphml]
     if len(args.files) > 1 and any(outputs):
-        print("mclc: error: --dot, --dot-tasks, --pnml and --net-json take one input file",
-              file=sys.stderr)
+        print("mclc: error: --dot, --dot-tasks, --pnml, --net-json and --graphml take one "
+              "input file", file=sys.stderr)
+        return EXIT_INVALID
+    if args.graphml is not None and (args.no_verify or args.method == "structural"):
+        print(f"mclc: error: --graphml writes the graph the explicit route explores, and "
+              f"{'--no-verify' if args.no_verify else 'the structural route'} explores none: "
+              "use --method explicit", file=sys.stderr)
         return EXIT_INVALID
     reports: list[dict[str, Any]] = []
     worst = EXIT_OK
@@ -202,10 +212,10 @@ def _diag_json(d: Diagnostic) -> dict[str, Any]:
 
 
 def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, Any]]:
+    if args.graphml is not None:
+        check_output(args.graphml, "--graphml")
     if path.lower().endswith(".pnml"):
-        from petri.verification.pnml_report import report_file
-
-        return report_file(path, fmt)
+        return _pnml(path, args, fmt)
     params = parse_params(args.param, args.params)
     compiled = compile_file(path, args.tasks or None, params)
     _write_outputs(compiled, args)
@@ -214,13 +224,17 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, 
     if not args.no_verify:
         from mcl.analysis.verification import verify_mission
 
-        verdict = verify_mission(compiled, args.method, max_markings=args.max_markings)
+        verdict = verify_mission(compiled, args.method, max_markings=args.max_markings,
+                                 keep_graph=args.graphml is not None)
+        if args.graphml is not None:
+            _write_graph(path, args.graphml, compiled.net, verdict.space,
+                         "--method auto took the structural route")
         report["verification"] = verdict.to_json()
         status = (EXIT_OK if verdict.ok else EXIT_PROPERTY if verdict.failed
                   else EXIT_UNDECIDED)
         report["status"] = ("verified" if verdict.ok else "property-fails" if verdict.failed
                             else "undecided")
-    from mcl.analysis.duration import check as check_durations
+    from app.reports.duration import check as check_durations
 
     bounds = check_durations(compiled.checked, args.limits)
     report["duration"] = bounds.report
@@ -259,6 +273,48 @@ def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:
             write_output(path, option, write)
 
 
+def _pnml(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, Any]]:
+    """``mclc NET.pnml``: the state-space report of a P/T net (explicit with ``--method
+    explicit``, else explicit or symbolic, whichever fits)."""
+    from app.reports.pnml import pnml_text
+    from petri.formats.pnml import PnmlError
+    from petri.verification.pnml_report import analyse_graph, load_net
+
+    try:
+        net = load_net(path)
+    except PnmlError as exc:
+        print(exc, file=sys.stderr)
+        return EXIT_INVALID, {"file": path, "status": "invalid", "diagnostics": [
+            {"severity": "error", "message": exc.message, "hint": None, "code": "pnml",
+             "file": exc.path or path, "line": exc.line, "col": exc.col}]}
+    method = "explicit" if args.method == "explicit" else "auto"
+    analysis, space = analyse_graph(net, method, arcs=args.graphml is not None)
+    if args.graphml is not None:
+        _write_graph(path, args.graphml, net, space, "--method auto took the symbolic search")
+    report = {"file": path, "status": "analysed", **analysis}
+    if fmt == "text":
+        print(f"{path}:")
+        print(pnml_text(report))
+        if args.graphml is not None:
+            print(f"wrote reachability graph to {args.graphml}")
+    return EXIT_OK, report
+
+
+def _write_graph(source: str, target: str, net: Any, space: Any, route: str) -> None:
+    """``--graphml``: the reachability graph the verification explored, or a one-line error
+    saying why there is none (``route``: what was taken instead) or why it is not written."""
+    from petri.formats.graphml import GraphTooLarge, write_graphml
+
+    if space is None:
+        raise MclError(f"--graphml: {route}, which explores no reachability graph; --method "
+                       "explicit gives one", span=Span.of_file(source), code="no-graph")
+    try:
+        write_output(target, "--graphml", lambda out: write_graphml(net, space, out))
+    except GraphTooLarge as exc:
+        raise MclError(f"--graphml: {exc}", span=Span.of_file(source),
+                       code="graph-too-large") from None
+
+
 def _write_pnml(net: Any, path: str) -> None:
     from petri.formats.pnml import write_pnml
 
@@ -285,13 +341,14 @@ def _print_text(compiled: Compiled, report: dict[str, Any], args: argparse.Names
     print(f"{compiled.source.name}: mission {name}: {report['tasks']} task calls, "
           f"{report['places']} places, {report['transitions']} transitions")
     for flag, what in ((args.dot, "full net"), (args.dot_tasks, "task view"),
-                       (args.pnml, "PNML"), (args.net_json, "net JSON")):
+                       (args.pnml, "PNML"), (args.net_json, "net JSON"),
+                       (args.graphml, "reachability graph")):
         if flag:
             print(f"  wrote {what} to {flag}")
     if "verification" in report:
-        from petri.verification.properties import format_text
+        from app.reports.text import verification_text
 
-        print(format_text(report["verification"]))
+        print(verification_text(report["verification"]))
 
 
 if __name__ == "__main__":

@@ -9,9 +9,9 @@ liveliness tokens (``mcl/<v>/alive/**``). On a terminal it redraws one screen in
 times a second (progress, not a log scroll); otherwise (``--plain``, a pipe, a file) it prints
 one line whenever the mission's state changes.
 
-Exit status: 0 on Ctrl-C or when the mission ended OK (``--until-end``), 1 when it ended FAIL
-or the vehicle was lost (``--until-end``: the player's word comes through the vehicle), 2 on
-invalid options, 3 when ``--timeout`` ran out first.
+Its exit statuses (docs/EXIT.md): OK on Ctrl-C or when the mission ended OK (``--until-end``),
+FAILED when it ended FAIL or the vehicle was lost (``--until-end``: the player's word comes
+through the vehicle), INVALID on invalid options, UNDECIDED when ``--timeout`` ran out first.
 """
 
 from __future__ import annotations
@@ -26,8 +26,9 @@ import time
 from collections.abc import Sequence
 from typing import Any, TextIO
 
+from mission.exits import Exit
+
 REFRESH = 0.25  # wall s between redraws
-EXIT_OK, EXIT_FAIL, EXIT_INVALID, EXIT_TIMEOUT = 0, 1, 2, 3
 
 
 class View:
@@ -192,17 +193,17 @@ def watch(view: View, until_end: bool, timeout: float | None, plain: bool,
         ended = view.ended()
         if until_end and ended:
             print(f"mission ended {ended.upper()}", file=out, flush=True)
-            return EXIT_OK if ended == "ok" else EXIT_FAIL
+            return Exit.OK if ended == "ok" else Exit.FAILED
         if until_end and view.vehicle_alive is False:  # the player's word comes through it
             print("vehicle lost: the mission's end cannot be known from here", file=out,
                   flush=True)
-            return EXIT_FAIL
+            return Exit.FAILED
         if deadline is not None and time.monotonic() >= deadline:
             print(f"mcl monitor: --timeout of {timeout:g} s reached", file=sys.stderr)
-            return EXIT_TIMEOUT
+            return Exit.UNDECIDED
         view.changed.wait(REFRESH)
         view.changed.clear()
-    return EXIT_OK
+    return Exit.OK
 
 
 def _open(zenoh: Any, config: Any, endpoint: str, timeout: float | None,
@@ -252,7 +253,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="exit when the mission ends: status 0 if OK, 1 if FAIL or if the "
                         "vehicle is lost")
     p.add_argument("--timeout", type=float, metavar="SECONDS",
-                   help="give up after this many wall seconds (exit 3)")
+                   help="give up after this many wall seconds (exit 4: no verdict)")
     p.add_argument("--plain", action="store_true",
                    help="one line per change instead of a screen (default when not a terminal)")
     p.add_argument("--scouting", action="store_true",
@@ -266,7 +267,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     problem = _check_options(args)
     if problem:  # one line naming the option
         print(problem, file=sys.stderr)
-        return 2
+        return Exit.INVALID
     import zenoh
 
     from aal.zenoh import close_session, keys, payload_text, zenoh_config
@@ -281,7 +282,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                                         scouting=args.scouting),
                     args.zenoh, args.timeout, stop)
     if session is None:
-        return EXIT_TIMEOUT if not stop.is_set() else EXIT_OK
+        return Exit.UNDECIDED if not stop.is_set() else Exit.OK
     try:
         prefix = k["telemetry"] + "/"
         entities = [

@@ -3,7 +3,8 @@
     mcl mosaic RUN.jsonl|RUN.images [--scale MM_PER_PX] [--out PREFIX] [--no-truth]
 
 Writes PREFIX.mosaic.png, PREFIX.coverage.png and PREFIX.mosaic.json (default PREFIX: the run
-log without its suffix) and prints where, with the figures. Exit 0 made, 2 invalid input.
+log without its suffix) and prints where, with the figures. Its exit statuses (made, invalid
+input): docs/EXIT.md.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import math
 import sys
 from pathlib import Path
 
+from mission.exits import Exit
 from mosaic.blending import MM_PER_PX
 from mosaic.images import SurveyError, find
 
@@ -51,10 +53,10 @@ def main(argv: list[str] | None = None) -> int:
             msg = f"{head}: error: {rest}"
         print(f"{msg}\n  hint: mcl mosaic takes the run log of 'mcl run' (its images are in "
               "RUN.images/) or that folder", file=sys.stderr)
-        return 2
+        return Exit.INVALID
     except ValueError as exc:
         print(f"{args.run}: error: {exc}", file=sys.stderr)
-        return 2
+        return Exit.INVALID
     prefix = Path(args.out) if args.out else (
         folder.with_suffix("") if folder.suffix == ".images" else folder / "run")
     try:
@@ -62,10 +64,10 @@ def main(argv: list[str] | None = None) -> int:
         paths = write(result, prefix)
     except OSError as exc:
         print(f"{prefix}: error: cannot write: {exc.strerror or exc}", file=sys.stderr)
-        return 2
+        return Exit.INVALID
     for line in summary_lines(result, paths):
         print(line)
-    return 0
+    return Exit.OK
 
 
 if __name__ == "__main__":

@@ -3,8 +3,8 @@
     mcl replay RUN.jsonl MISSION.mcl [--tasks FILE]
 
 The log's digest chain, its clock and its end record are checked, then every record against
-the mission's net (``petri/execution/replay.py``). Exit status: 0 the log conforms, 1 it does not, 2
-invalid input, 3 an internal error.
+the mission's net (``petri/execution/replay.py``). Its exit statuses (conforms, does not,
+invalid input): docs/EXIT.md.
 """
 
 from __future__ import annotations
@@ -14,10 +14,9 @@ import sys
 from typing import Any
 
 from mcl.api import compile_file
+from mission.exits import Exit
 
 from app.guard import guarded
-
-EXIT_OK, EXIT_FAIL, EXIT_INVALID = 0, 1, 2
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -48,9 +47,9 @@ def _replay(args: argparse.Namespace) -> int:
             print(f"{args.log}: error: {exc.reason}\n  hint: mcl replay RUN.jsonl "
                   "MISSION.mcl takes the run log "
                   "'mcl run' wrote", file=sys.stderr)
-            return EXIT_INVALID
+            return Exit.INVALID
         print(f"{args.log}:{exc.line}: not conformant: {exc.reason}")
-        return EXIT_FAIL
+        return Exit.FAILED
     header = records[0]
     params: dict[str, Any] = header.get("params") or {}
     tasks: list[Any] = header.get("tasks") or []
@@ -65,14 +64,14 @@ def _replay(args: argparse.Namespace) -> int:
         verify(records, args.log)  # the digest chain, time, the end record
     except LogError as exc:
         print(f"{args.log}:{exc.line}: not conformant: {exc.reason}")
-        return EXIT_FAIL
+        return Exit.FAILED
     result = check(compiled.net, records, {})
     if result.ok:
         print(f"{args.log}: conforms to {args.mission}: {result.firings} firings in "
               f"{result.records} records")
-        return EXIT_OK
+        return Exit.OK
     print(f"{args.log}:{result.line}: not conformant: {result.reason}")
-    return EXIT_FAIL
+    return Exit.FAILED
 
 
 if __name__ == "__main__":

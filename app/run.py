@@ -2,14 +2,13 @@
 
     mcl run MISSION.mcl [--vehicle KIND[:WHERE]] [--param k=v ...] [--log run.jsonl] ...
 
-The kinds of vehicle and their options: ``app/vehicles/`` (one module each). Exit status: 0
-the mission ended ok; 1 it ended fail (a task failed, an alarm, ``Link.lost``) or it is not
-verified; 2 invalid input, or a mission the vehicle cannot run (refused before the first
-action); 3 an internal error (a bug); 4 stopped at ``--max-time`` or stuck (nothing could
-happen any more); 5 stopped by an error of the vehicle or its adapter; 128 + N stopped by
-signal N (130 SIGINT, 143 SIGTERM, 129 SIGHUP). Every exit but 2 before the start goes through
-the mission's abort: every behaviour on is disabled and the run log's last record (``"kind":
-"end"``) says how and why the run ended.
+It parses the options, builds the vehicle (``app/vehicles/``, one module per kind), calls
+:func:`mission.run_mission` (the time bound, the capability check, verification, the run log,
+the player and the runner) and prints the timeline and the summary. What it adds as a process:
+signals (SIGINT, SIGTERM, SIGHUP abort the mission through its net) and a standard output
+that never raises (``app/safe_exit.py``). Every exit but a refusal before the start goes
+through the mission's abort, and the run log's last record (``"kind": "end"``) says how and
+why the run ended, with its exit status: docs/EXIT.md (the table: ``mission/exits.py``).
 """
 
 from __future__ import annotations
@@ -22,20 +21,21 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from diagnostics import MclError
 from mcl import values
 from mcl.api import Compiled, compile_file, parse_params
-from mcl.analysis.verification import verify_mission
+from mission.exits import Exit
+from mission.run import NotVerified, RunResult, run_mission
+from mission.vehicle import Vehicle
+from petri.execution.runner import MissionClock
 
 from app import vehicles
 from app.guard import guarded
 from app.mclc import OutputError
+from app.safe_exit import Output, Stops
 
 if TYPE_CHECKING:
     from vehicle.control.stack import IctineuStack
 
-EXIT_OK, EXIT_FAIL, EXIT_INVALID, EXIT_INTERNAL = 0, 1, 2, 3
-EXIT_STOPPED, EXIT_VEHICLE = 4, 5  # run: --max-time or stuck; an error of the vehicle
 STOP_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
 
 
@@ -112,119 +112,64 @@ def _param_texts(overrides: dict[str, Any]) -> dict[str, str]:
 
 
 def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
-    from petri.execution.player import Player
-    from petri.execution.runlog import RunLog, net_digest
-    from petri.execution.runner import MissionClock, run
-
-    from app import safe_exit
-
     _check_log(Path(args.log) if args.log else Path("out/runs/MISSION.jsonl"))
     overrides = parse_params(args.param, args.params)
     compiled = compile_file(args.mission, args.tasks or None, overrides, require_values=True)
     for d in compiled.warnings:
         print(d.format(), file=sys.stderr)
-    max_time, limit_why = safe_exit.max_time(compiled, args.max_time)
     chosen = vehicles.build(args, owned)
-    vehicle, stack, declares = chosen.adapter, chosen.stack, chosen.declares
-    said = declares.declaration() if declares is not None else None
-    if said is not None:  # known before connecting: refuse now
-        safe_exit.check_capabilities(compiled, said)
-    if not args.no_verify:
-        verdict = verify_mission(compiled, "auto")
-        if not verdict.ok:
-            failed = [r for r in verdict.results if not r.holds and r.severity == "error"]
-            print(f"{args.mission}: not verified ({', '.join(r.name for r in failed)}): "
-                  "refusing to run it\n  hint: see 'mclc " + args.mission + "'; --no-verify "
-                  "runs it anyway", file=sys.stderr)
-            return EXIT_FAIL
-    name = compiled.mission.name or Path(args.mission).stem
     log_path = Path(args.log) if args.log else Path("out/runs") / (
         f"{Path(args.mission).stem}-{time.strftime('%Y%m%d-%H%M%S')}.jsonl")
-    header = {"mission": name, "file": args.mission, "net": net_digest(compiled.net),
-              "params": _param_texts(overrides), "tasks": args.tasks,
-              "vehicle": args.vehicle, "seed": args.seed, "inject": args.inject,
-              "max_time": max_time, "time": "mission time: 0 at the mission's start"}
-    if stack is not None and not args.no_images:  # the camera's images, beside the log
-        from mosaic.hook import attach
+    if chosen.stack is not None and not args.no_images:  # the camera's images, beside the log
+        from mosaic.hook import attach  # here for start-up speed: only a simulated run needs it
 
-        attach(stack, log_path)
-    player = Player(compiled.net)
+        attach(chosen.stack, log_path)
+    header = {"file": args.mission, "params": _param_texts(overrides), "tasks": args.tasks,
+              "vehicle": args.vehicle, "seed": args.seed, "inject": args.inject}
     clock = MissionClock()
-    out = safe_exit.Output()
-    timeline = _Timeline(compiled, clock, out) if not args.quiet else None
-    stops = safe_exit.Stops(STOP_SIGNALS)
-    last_t = [0.0]  # the mission time of the last record (an end record never goes back)
-    with stops, RunLog(log_path, header) as log:
-        try:
-            with vehicle:
-                if declares is not None and not (chosen.link and chosen.link.lost):
-                    said = declares.declaration()  # a remote vehicle's own word, once connected
-                    if said is not None:
-                        safe_exit.check_capabilities(compiled, said)
-                player.observers.append(log)
-                player.observers.append(lambda r: last_t.__setitem__(0, r.t))
-                if chosen.status is not None:  # observers of the mission: mcl monitor
-                    from petri.execution.status import MissionStatus
+    out = Output()
+    stops = Stops(STOP_SIGNALS)
+    try:
+        result = run_mission(
+            compiled, chosen, log=log_path, header=header, max_time=args.max_time,
+            stop=stops.request, verify=not args.no_verify, clock=clock, end_note=out.note,
+            observers=[] if args.quiet else [_Timeline(compiled, clock, out)], during=stops)
+    except NotVerified as exc:
+        print(f"{args.mission}: not verified ({', '.join(exc.failed)}): refusing to run it\n"
+              f"  hint: see 'mclc {args.mission}'; --no-verify runs it anyway", file=sys.stderr)
+        return Exit.FAILED
+    _summary(args.mission, result, chosen, out, log_path)
+    return result.exit
 
-                    player.observers.append(MissionStatus(
-                        player, name, chosen.status.run, chosen.status.publish_status,
-                        vehicle_time=clock.vehicle))
-                if timeline:
-                    player.observers.append(timeline)
-                outcome = run(player, vehicle, name, max_time=max_time, stop=stops.reason,
-                              clock=clock)
-        except MclError as exc:  # refused, or a vehicle that cannot be reached: nothing sent
-            first = exc.diagnostics[0].message if exc.diagnostics else str(exc)
-            log.end(last_t[0], "refused", first, exit=EXIT_INVALID, status=player.status)
-            raise
-        except Exception as exc:  # a bug of ours: the log still says how the run ended
-            log.end(last_t[0], "error", f"internal error: {type(exc).__name__}: {exc}",
-                    exit=EXIT_INTERNAL, status=player.status)
-            raise
-        code = _exit_status(outcome, stops.signal)
-        how = {"ok": "ok", "fail": "fail", "timeout": "time limit", "stuck": "stuck",
-               "stopped": "signal", "error": "error"}.get(outcome.status, outcome.status)
-        why = outcome.reason or ("the mission ended " + outcome.status.upper())
-        if chosen.link is not None and chosen.link.lost:
-            why += f" (Link.lost: {chosen.link.lost_reason or 'the link was lost'})"
-        if out.closed:
-            why += "; standard output was closed during the run (the timeline stopped)"
-        log.end(max(outcome.time, last_t[0]), how, why, exit=code, status=player.status,
-                vehicle_t=round(clock.vehicle(outcome.time), 6),
-                switched_off=outcome.switched_off, confirmed=outcome.confirmed,
-                limit=max_time, limit_from=limit_why)
+
+def _summary(mission: str, result: RunResult, chosen: Vehicle, out: Output,
+             log_path: Path) -> None:
+    """How the run ended, where its log is, and what the vehicle kind adds (the link's
+    figures, the simulated survey and its mosaic)."""
     shown = {"timeout": "STOPPED AT THE TIME LIMIT", "stuck": "STUCK", "stopped": "STOPPED",
-             "error": "STOPPED BY AN ERROR"}.get(outcome.status, outcome.status.upper())
+             "error": "STOPPED BY AN ERROR"}.get(result.status, result.status.upper())
     vehicle_clock = ""
-    if clock.origin:  # the vehicle's clock did not start with the mission
-        vehicle_clock = (f" (vehicle clock {clock.vehicle(0.0):.1f} -> "
-                         f"{clock.vehicle(outcome.time):.1f} s)")
-    out.say(f"{args.mission}: mission {name} ended {shown} after {outcome.time:.1f} s "
-            f"of mission time{vehicle_clock} ({player.fired} firings)"
-            + (f": {outcome.reason}" if outcome.reason else ""))
-    if outcome.status not in ("ok", "fail") or outcome.switched_off:
-        out.say(f"  switched off: {', '.join(outcome.switched_off) or 'nothing was on'}; "
-                f"{outcome.confirmed}")
+    if result.vehicle_clock is not None:  # the vehicle's clock did not start with the mission
+        start, end = result.vehicle_clock
+        vehicle_clock = f" (vehicle clock {start:.1f} -> {end:.1f} s)"
+    out.say(f"{mission}: mission {result.mission} ended {shown} after {result.time:.1f} s "
+            f"of mission time{vehicle_clock} ({result.firings} firings)"
+            + (f": {result.reason}" if result.reason else ""))
+    if result.status not in ("ok", "fail") or result.switched_off:
+        out.say(f"  switched off: {', '.join(result.switched_off) or 'nothing was on'}; "
+                f"{result.confirmed}")
     out.say(f"  run log: {log_path}")
     if chosen.summary is not None:  # what went over a MAVLink link
         out.say("  link: " + ", ".join(f"{k} {v}" for k, v in chosen.summary.summary().items()
                                        if v is not None))
-    if stack is not None and outcome.status != "stopped":
-        _report_survey(stack, log_path, name, out)
-        from mosaic.hook import report
+    if chosen.stack is not None and result.status != "stopped":
+        _report_survey(chosen.stack, log_path, result.mission, out)
+        from mosaic.hook import report  # here for start-up speed: only a simulated run needs it
 
-        report(stack, log_path, out.say)
-    if outcome.status == "error":
-        print(f"mcl run: the run was stopped by an error of the vehicle: {outcome.reason}",
+        report(chosen.stack, log_path, out.say)
+    if result.status == "error":
+        print(f"mcl run: the run was stopped by an error of the vehicle: {result.reason}",
               file=sys.stderr)
-    return code
-
-
-def _exit_status(outcome: Any, signum: int | None) -> int:
-    if outcome.status == "stopped" and signum is not None:
-        return 128 + signum
-    return {"ok": EXIT_OK, "fail": EXIT_FAIL, "timeout": EXIT_STOPPED, "stuck": EXIT_STOPPED,
-            "stopped": EXIT_STOPPED, "error": EXIT_VEHICLE}.get(outcome.status, EXIT_FAIL)
 
 
 def _report_survey(stack: IctineuStack, log_path: Path, name: str, out: Any) -> None:

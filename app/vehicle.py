@@ -5,8 +5,8 @@
 
 Over Zenoh the server is :mod:`vehicle.servers.zenoh_server` (docs/ZENOH.md); over MAVLink 2 the
 ArduSub-like vehicle of :mod:`vehicle.servers.ardusub` (docs/MAVLINK.md). Both print ``vehicle auv
-ready on ...`` when ready and their summary when stopped (SIGTERM, SIGINT). Exit status: 0
-stopped, 2 invalid input (one line naming the option).
+ready on ...`` when ready and their summary when stopped (SIGTERM, SIGINT). Its exit statuses
+(stopped, invalid input: one line naming the option): docs/EXIT.md.
 """
 
 from __future__ import annotations
@@ -18,6 +18,8 @@ import signal
 import sys
 import threading
 from collections.abc import Sequence
+
+from mission.exits import Exit
 
 from app import zenoh_options
 
@@ -90,7 +92,7 @@ def zenoh_main(argv: list[str]) -> int:
     problem = _zenoh_problem(args)
     if problem:
         print(problem, file=sys.stderr)
-        return 2
+        return Exit.INVALID
     logging.basicConfig(level=args.log_level.upper(),
                         format="%(asctime)s vehicle %(levelname)s %(message)s")
     stop = _stop_on_signals()
@@ -105,12 +107,12 @@ def zenoh_main(argv: list[str]) -> int:
         server.run()
     except zenoh.ZError as exc:
         print(f"--zenoh {args.zenoh}: error: {zenoh_error(exc)}", file=sys.stderr)
-        return 2
+        return Exit.INVALID
     on = sorted(b.name for b in server.stack.behaviours.values() if b.active)
     print(f"vehicle {args.name} stopped after {server.stack.t:.1f} s of simulated time "
           f"({server.actions} actions, {server.stale} stale)\n"
           f"  behaviours on at exit: {', '.join(on) or 'none'}", flush=True)
-    return 0
+    return Exit.OK
 
 
 def _zenoh_problem(args: argparse.Namespace) -> str | None:
@@ -179,7 +181,7 @@ def mavlink_main(argv: list[str]) -> int:
                              "or CRITICAL")
     except (ValueError, signing.SigningError) as exc:
         print(f"mcl vehicle: error: {exc}", file=sys.stderr)
-        return 2
+        return Exit.INVALID
     logging.basicConfig(level=args.log_level.upper(),
                         format="%(asctime)s vehicle %(levelname)s %(message)s")
     stop, ready = _stop_on_signals(), threading.Event()
@@ -193,9 +195,9 @@ def mavlink_main(argv: list[str]) -> int:
         vehicle.run()
     except (OSError, signing.SigningError) as exc:
         print(f"mcl vehicle: error: {args.mavlink}: {exc}", file=sys.stderr)
-        return 2
+        return Exit.INVALID
     print("\n".join(vehicle.summary()), flush=True)
-    return 0
+    return Exit.OK
 
 
 def _announce(ready: threading.Event, line: str) -> None:

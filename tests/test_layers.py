@@ -21,6 +21,7 @@ from tests.support import REPO
 # not one above, and not a peer (strict levels). README.md's layout section repeats it.
 LAYERS: tuple[str, ...] = (
     "app",               # the commands: mclc, mcl run | replay | check | vehicle | monitor | mosaic
+    "mission",           # a run as a library call: run_mission, capability check, time bound
     "mcl",               # the language: grammar, parser, checker, compiler, templates
     "mosaic",            # the photomosaic of a run's images
     "vehicle_adapters",  # player-side transports: inprocess, scripted, zenoh, mavlink

@@ -1,18 +1,16 @@
-"""What a kind of vehicle supplies (:class:`Kind`), what it builds for a run (:class:`Vehicle`),
-and how it refuses its input (:class:`Invalid`). docs/EXTENDING.md, "Add a kind of vehicle"."""
+"""What a kind of vehicle supplies (:class:`Kind`), what it builds for a run (a
+:class:`mission.vehicle.Vehicle`, named here for the kinds' imports), and how it refuses its
+input (:class:`Invalid`). docs/EXTENDING.md, "Add a kind of vehicle"."""
 
 from __future__ import annotations
 
 import argparse
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 from diagnostics import Diagnostic, MclError
+from mission.vehicle import Vehicle
 
-if TYPE_CHECKING:
-    from aal.messages import Declaration
-    from aal.messages import Vehicle as Adapter
-    from vehicle.control.stack import IctineuStack
+__all__ = ["Invalid", "Kind", "Options", "Vehicle", "error_line"]
 
 
 class Invalid(MclError):
@@ -39,48 +37,6 @@ def error_line(message: str) -> str:
         return f"{head}: error: {rest}{newline}{more}"
     option, _, rest = first.partition(" ")
     return f"{option}: error: {rest}{newline}{more}"
-
-
-# -- what a run may ask of the vehicle beyond the adapter: declared, never looked for ---------
-class Declares(Protocol):
-    """Says what the vehicle can do (before connecting, or once connected; None: not known)."""
-
-    def declaration(self) -> Declaration | None: ...
-
-
-class Link(Protocol):
-    """A link to another process that can be lost (``Link.lost``)."""
-
-    @property
-    def lost(self) -> bool: ...
-
-    lost_reason: str
-
-
-class StatusFeed(Protocol):
-    """Takes the mission's status, for ``mcl monitor``; ``run`` names this player's run."""
-
-    run: str
-
-    def publish_status(self, status: dict[str, Any]) -> None: ...
-
-
-class Summary(Protocol):
-    """Sums up, at the end, what went over the link (counts, latencies)."""
-
-    def summary(self) -> dict[str, Any]: ...
-
-
-@dataclass
-class Vehicle:
-    """What a kind builds for one run: the adapter the player runs on and what else it has."""
-
-    adapter: Adapter  # now, send, receive, idle; a context manager (aal.messages.Vehicle)
-    stack: IctineuStack | None = None  # the simulated stack behind it: survey, images, seabed
-    declares: Declares | None = None
-    link: Link | None = None
-    status: StatusFeed | None = None
-    summary: Summary | None = None
 
 
 class Options:

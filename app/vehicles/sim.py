@@ -1,6 +1,6 @@
 """``--vehicle sim``: the simulated Ictineu in front of a dam wall, in this process, in
-simulated time (docs/VEHICLES.md). Its options are ``mcl run``'s own: ``--seed``, ``--inject``,
-``--realtime``, ``--no-images``."""
+simulated time (docs/VEHICLES.md), as :func:`mission.simulated_vehicle` builds it. Its options
+are ``mcl run``'s own: ``--seed``, ``--inject``, ``--realtime``, ``--no-images``."""
 
 from __future__ import annotations
 
@@ -20,15 +20,12 @@ def add_options(options: Options) -> None:
 
 
 def build(where: str, args: argparse.Namespace) -> Vehicle:
-    from behaviours import capabilities
-    from vehicle.control.stack import IctineuStack, StackConfig, parse_fault
-    from vehicle_adapters.inprocess import InProcess
+    from vehicle.control.stack import parse_fault
+
+    from mission.simulated import simulated_vehicle
 
     try:
         faults = [parse_fault(item) for item in args.inject]
     except ValueError as exc:
         raise Invalid(f"--inject {exc}") from None
-    stack = IctineuStack(StackConfig(seed=args.seed, faults=faults))
-    adapter = InProcess(stack, speed=1.0 if args.realtime else None,
-                        declaration=capabilities.simulated("sim (the simulated Ictineu)"))
-    return Vehicle(adapter, stack=stack, declares=adapter)
+    return simulated_vehicle(seed=args.seed, faults=faults, realtime=args.realtime)

@@ -315,7 +315,7 @@ def test_a_script_naming_an_unknown_behaviour_or_event_is_an_error(
 
 
 def test_default_max_time_is_stated_and_derived_from_the_mission(tmp_path: Path) -> None:
-    from app import safe_exit
+    from mission import limits as safe_exit  # the time bound: mission/limits.py
 
     helped = subprocess.run([str(BIN / "mcl"), "run", "--help"], capture_output=True,
                             text=True, timeout=60, cwd=REPO)
@@ -336,7 +336,8 @@ def test_default_max_time_is_stated_and_derived_from_the_mission(tmp_path: Path)
 
 
 def test_the_simulated_stack_has_exactly_the_declared_behaviours() -> None:
-    from app.safe_exit import _parameters, declared_behaviours
+    from mission.capabilities import declared_behaviours
+    from mission.capabilities import parameters_taken as _parameters
     from vehicle.control.stack import IctineuStack
     from behaviours.capabilities import simulated
 

@@ -1,0 +1,87 @@
+"""The capability check: is a mission within what a vehicle declares it can do?
+
+A vehicle declares its behaviours, their events and the parameters they take in the task
+library's own form (:class:`aal.messages.Declaration`, written by
+:mod:`behaviours.capabilities`). Before the first action, every behaviour and event the
+mission's tasks need, and every parameter they give, must be declared;
+:func:`check_capabilities` names each task call that needs more, at its ``file:line:col``.
+"""
+
+from __future__ import annotations
+
+from aal.messages import Declaration
+from diagnostics import Diagnostic, MclError, Source
+from mcl import ast, tasklib
+from mcl.api import Compiled
+
+
+def declared_behaviours(declaration: Declaration) -> tasklib.Library:
+    """The vehicle's declaration, parsed by the task library's own parser."""
+    return tasklib.load_sources([Source(declaration.source, declaration.text)])
+
+
+def check_capabilities(compiled: Compiled, declaration: Declaration) -> None:
+    """MclError (exit 2) naming each task call that needs a behaviour or an event the
+    vehicle does not declare, at the call's ``file:line:col``."""
+    library = declared_behaviours(declaration)
+    have = library.behaviours
+    takes = parameters_taken(library)
+    problems: list[Diagnostic] = []
+    seen: set[tuple[int, int, str]] = set()
+    listing = ", ".join(sorted(have)) or "none"
+    for call in ast.calls(compiled.mission.body):
+        resolved = compiled.checked.calls.get(id(call))
+        if resolved is None:
+            continue
+        form = resolved.form
+        needed = [a.behaviour for a in form.start + form.stop]
+        needed += [b for b in (form.latch, form.unlatch) if b]
+        events = [e for e in form.ok + form.fail
+                  if e.partition(".")[0] not in tasklib.BUILTIN_SOURCES]
+        for behaviour in dict.fromkeys(needed + [e.partition(".")[0] for e in events]):
+            key = (call.span.line, call.span.col, behaviour)
+            if behaviour not in have and key not in seen:
+                seen.add(key)
+                problems.append(compiled.source.diagnostic(
+                    "error", f"{call.name} needs behaviour {behaviour}, which vehicle "
+                    f"{declaration.vehicle} does not have", call.span,
+                    f"the vehicle declares ({declaration.source}): {listing}; run the mission "
+                    "on a vehicle that has it", "vehicle-lacks-behaviour"))
+        for action in form.start + form.stop:
+            given = {k for k, _ in action.bindings}
+            allowed = takes.get(action.behaviour)
+            extra = sorted(given - allowed) if allowed is not None else []
+            key = (call.span.line, call.span.col, f"{action.behaviour}({extra})")
+            if extra and key not in seen:
+                seen.add(key)
+                problems.append(compiled.source.diagnostic(
+                    "error", f"{call.name} gives {action.behaviour} the parameter(s) "
+                    f"{', '.join(extra)}, which vehicle {declaration.vehicle} does not take",
+                    call.span, f"its {action.behaviour} takes: "
+                    f"{', '.join(sorted(allowed or ())) or 'no parameters'} "
+                    f"({declaration.source})", "vehicle-lacks-parameter"))
+        for event in events:
+            behaviour, _, name = event.partition(".")
+            key = (call.span.line, call.span.col, event)
+            if behaviour in have and name not in have[behaviour].events and key not in seen:
+                seen.add(key)
+                problems.append(compiled.source.diagnostic(
+                    "error", f"{call.name} waits for {event}, which vehicle "
+                    f"{declaration.vehicle} never raises", call.span,
+                    f"its {behaviour} raises: {', '.join(have[behaviour].events) or 'nothing'}"
+                    f" ({declaration.source})", "vehicle-lacks-event"))
+    if problems:
+        raise MclError(problems)
+
+
+def parameters_taken(library: tasklib.Library) -> dict[str, set[str]]:
+    """The parameters each behaviour takes, as the declaring library's own actions give
+    them (a behaviour no action of it enables: not declared, not checked)."""
+    takes: dict[str, set[str]] = {}
+    for forms in library.tasks.values():
+        for form in forms:
+            for action in form.start + form.stop:
+                if action.kind in ("enable", "configure"):
+                    takes.setdefault(action.behaviour, set()).update(
+                        k for k, _ in action.bindings)
+    return takes

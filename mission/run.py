@@ -1,0 +1,240 @@
+"""A run as a library call: :func:`run_mission` runs a compiled mission on a vehicle, with its
+time bound, its capability check, its verification, its run log and its safe exit, and returns
+what happened as a :class:`RunResult`.
+
+    from mcl.api import compile_file
+    from mission import run_mission, simulated_vehicle
+
+    result = run_mission(compile_file("missions/dam_inspection.mcl", require_values=True),
+                         simulated_vehicle(seed=2), log="out/runs/dam.jsonl")
+    print(result.status, result.time, result.firings, result.exit)
+
+The steps, in order:
+
+1. the time bound (:func:`mission.limits.max_time`);
+2. the capability check with the vehicle's declaration, if known before connecting
+   (:func:`mission.capabilities.check_capabilities`: an :class:`~diagnostics.MclError`, and
+   nothing is written or sent);
+3. verification (:func:`mcl.analysis.verification.verify_mission`): an unverified mission is
+   refused (:class:`NotVerified`) unless ``verify=False``;
+4. the run log opens (its header); the vehicle is connected; a remote vehicle's own declaration
+   is checked again (a refusal now is logged: the end record says ``refused``, exit 2);
+5. the player and the runner (:func:`petri.execution.runner.run`), which end every run that
+   does not end by itself through the mission's abort;
+6. the end record: how and why the run ended, its exit status (:mod:`mission.exits`), what was
+   switched off and what the vehicle confirmed of it. A bug of ours still writes it (``error``,
+   exit 3) before the exception goes on.
+
+Nothing here is process-wide: no signal handler (``stop`` asks for a stop; ``mcl run`` turns
+signals into it), no printing (``observers`` see every record; the caller prints), no global
+state. Several runs go side by side in one process, one thread each (examples/two_vehicles.py).
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from diagnostics import MclError
+from mcl.analysis.verification import verify_mission
+from mcl.api import Compiled
+from petri.execution.player import Player, Record
+from petri.execution.runlog import RunLog, net_digest
+from petri.execution.runner import MissionClock, Outcome, run
+from petri.execution.status import MissionStatus
+
+from mission.capabilities import check_capabilities
+from mission.exits import Exit, run_exit
+from mission.limits import max_time as time_bound
+from mission.vehicle import Vehicle
+
+if TYPE_CHECKING:
+    from aal.messages import Vehicle as Adapter
+
+HOW = {"ok": "ok", "fail": "fail", "timeout": "time limit", "stuck": "stuck",
+       "stopped": "signal", "error": "error"}  # the runner's status -> the end record's how
+TIME_NOTE = "mission time: 0 at the mission's start"
+
+
+@dataclass(frozen=True)
+class Stop:
+    """A request to stop a run now: why, and the signal that asked (None: not a signal; the
+    run's exit status is then 128 + N)."""
+
+    reason: str
+    signal: int | None = None
+
+
+class NotVerified(MclError):
+    """The mission is not verified, so it is not run (nothing was written or sent)."""
+
+    def __init__(self, failed: list[str]):
+        self.failed = failed  # the error-level properties not established
+        message = f"not verified ({', '.join(failed)}): refusing to run it"
+        super().__init__(message, hint="mclc shows why; verify=False runs it anyway",
+                         code="not-verified", text=message)
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """What a run did: how it ended, when, and what its end record says."""
+
+    mission: str  # the mission's name
+    status: str  # how the runner ended it: ok, fail, timeout, stuck, stopped, error
+    how: str  # the end record's how: ok, fail, time limit, stuck, signal, error
+    time: float  # mission time at the end, s
+    reason: str  # why the runner stopped it ("" when the mission ended by itself)
+    why: str  # the end record's why
+    exit: int  # the exit status of the run (mission.exits; docs/EXIT.md)
+    firings: int  # transitions fired
+    switched_off: tuple[str, ...]  # the behaviours the abort switched off
+    confirmed: str  # what the vehicle confirmed of the switch-off
+    limit: float  # the mission time limit, s
+    limit_from: str  # where the limit comes from
+    log: Path | None  # the run log (None: none was written)
+    vehicle_clock: tuple[float, float] | None  # the vehicle's clock at start and end, when it
+    #                                            differs from mission time
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
+                log: str | Path | None = None, header: Mapping[str, Any] | None = None,
+                max_time: float | None = None,
+                stop: Callable[[], Stop | str | None] | None = None,
+                observers: Iterable[Callable[[Record], None]] = (), verify: bool = True,
+                clock: MissionClock | None = None,
+                end_note: Callable[[], str | None] | None = None,
+                during: contextlib.AbstractContextManager[Any] | None = None) -> RunResult:
+    """Run ``compiled`` on ``vehicle`` to its end (the steps: this module's docstring).
+
+    ``log``: the run log's path (None: no log); ``header``: what its header says of the run
+    besides the mission, its file and its net (parameters, tasks, vehicle...); ``max_time``:
+    the mission time limit, s (None: from the mission's timeouts); ``stop``: called every
+    round, returns why to stop now (a :class:`Stop` or a reason) or None; ``observers``: see
+    every record of the player, after the log; ``verify``: refuse an unverified mission
+    (:class:`NotVerified`); ``clock``: the mission clock, for an observer that shows the
+    vehicle's clock beside mission time; ``end_note``: what the end record's why adds, asked
+    once the run has ended; ``during``: entered once the mission is checked and verified,
+    before its log opens, and left after its end record (``mcl run``'s signal handlers).
+    Raises :class:`~diagnostics.MclError` when the vehicle cannot run the mission (before
+    the first action)."""
+    limit = time_bound(compiled, max_time)
+    chosen = vehicle if isinstance(vehicle, Vehicle) else Vehicle.around(vehicle)
+    said = chosen.declares.declaration() if chosen.declares is not None else None
+    if said is not None:  # known before connecting: refuse now
+        check_capabilities(compiled, said)
+    if verify:
+        verdict = verify_mission(compiled, "auto")
+        if not verdict.ok:
+            raise NotVerified([r.name for r in verdict.results
+                               if not r.holds and r.severity == "error"])
+    name = compiled.mission.name or Path(compiled.source.name).stem
+    about = {"mission": name, "file": compiled.source.name, "net": net_digest(compiled.net),
+             **(header or {}), "max_time": limit[0], "time": TIME_NOTE}
+    play = _Play(compiled, chosen, name, Player(compiled.net),
+                 clock if clock is not None else MissionClock())
+    with contextlib.ExitStack() as held:
+        if during is not None:
+            held.enter_context(during)
+        opened = held.enter_context(RunLog(log, about)) if log is not None else None
+        outcome = play.run(opened, observers, limit[0], stop)
+        result = play.result(outcome, end_note, limit, opened)
+        if opened is not None:
+            opened.end(max(outcome.time, play.last_t), result.how, result.why,
+                       exit=result.exit, status=play.player.status,
+                       vehicle_t=round(play.clock.vehicle(outcome.time), 6),
+                       switched_off=outcome.switched_off, confirmed=outcome.confirmed,
+                       limit=limit[0], limit_from=limit[1])
+    return result
+
+
+class _Play:
+    """One run's player on its vehicle, from connecting to the outcome."""
+
+    def __init__(self, compiled: Compiled, chosen: Vehicle, name: str, player: Player,
+                 clock: MissionClock):
+        self.compiled, self.chosen, self.name = compiled, chosen, name
+        self.player, self.clock = player, clock
+        self.last_t = 0.0  # the mission time of the last record (the end never goes back)
+        self.stopped: list[Stop] = []  # the first stop asked for
+
+    def seen(self, record: Record) -> None:
+        self.last_t = record.t
+
+    def run(self, opened: RunLog | None, observers: Iterable[Callable[[Record], None]],
+            limit: float, stop: Callable[[], Stop | str | None] | None) -> Outcome:
+        """Connect, check the vehicle's own word, and run; a refusal or a bug of ours is
+        logged (the end record) before it goes on."""
+        chosen, player = self.chosen, self.player
+        try:
+            with chosen.adapter:
+                if chosen.declares is not None and not (chosen.link and chosen.link.lost):
+                    said = chosen.declares.declaration()  # a remote vehicle's own word
+                    if said is not None:
+                        check_capabilities(self.compiled, said)
+                if opened is not None:
+                    player.observers.append(opened)
+                player.observers.append(self.seen)
+                if chosen.status is not None:  # observers of the mission: mcl monitor
+                    player.observers.append(MissionStatus(
+                        player, self.name, chosen.status.run, chosen.status.publish_status,
+                        vehicle_time=self.clock.vehicle))
+                player.observers.extend(observers)
+                return run(player, chosen.adapter, self.name, max_time=limit,
+                           stop=self.asking(stop), clock=self.clock)
+        except MclError as exc:  # refused, or a vehicle that cannot be reached: nothing sent
+            first = exc.diagnostics[0].message if exc.diagnostics else str(exc)
+            if opened is not None:
+                opened.end(self.last_t, "refused", first, exit=Exit.INVALID,
+                           status=player.status)
+            raise
+        except Exception as exc:  # a bug of ours: the log still says how the run ended
+            if opened is not None:
+                opened.end(self.last_t, "error", f"internal error: {type(exc).__name__}: "
+                           f"{exc}", exit=Exit.INTERNAL, status=player.status)
+            raise
+
+    def asking(self, stop: Callable[[], Stop | str | None] | None
+               ) -> Callable[[], str | None] | None:
+        """The runner's ``stop`` (a reason or None), remembering the first :class:`Stop`."""
+        if stop is None:
+            return None
+
+        def reason() -> str | None:
+            asked = stop()
+            if asked is None:
+                return None
+            request = asked if isinstance(asked, Stop) else Stop(str(asked))
+            if not self.stopped:
+                self.stopped.append(request)
+            return request.reason
+
+        return reason
+
+    def result(self, outcome: Outcome, end_note: Callable[[], str | None] | None,
+               limit: tuple[float, str], opened: RunLog | None) -> RunResult:
+        """The run's result, as its end record will say it."""
+        link = self.chosen.link
+        why = outcome.reason or ("the mission ended " + outcome.status.upper())
+        if link is not None and link.lost:
+            why += f" (Link.lost: {link.lost_reason or 'the link was lost'})"
+        note = end_note() if end_note is not None else None
+        if note:
+            why += "; " + note
+        signum = self.stopped[0].signal if self.stopped else None
+        clock = self.clock
+        return RunResult(
+            mission=self.name, status=outcome.status,
+            how=HOW.get(outcome.status, outcome.status), time=outcome.time,
+            reason=outcome.reason, why=why, exit=int(run_exit(outcome.status, signum)),
+            firings=self.player.fired, switched_off=tuple(outcome.switched_off),
+            confirmed=outcome.confirmed, limit=limit[0], limit_from=limit[1],
+            log=opened.path if opened is not None else None,
+            vehicle_clock=((clock.vehicle(0.0), clock.vehicle(outcome.time))
+                           if clock.origin else None))
