@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -170,9 +169,3 @@ class Vehicle(Protocol):
         no event scheduled). Real vehicles answer False."""
         ...
 
-
-def sequence() -> Iterator[int]:
-    n = 0
-    while True:
-        yield n
-        n += 1

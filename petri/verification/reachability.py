@@ -329,12 +329,6 @@ def _bfs_path(ss: StateSpace, targets: npt.NDArray[np.int64]) -> list[int]:
     return path[::-1]
 
 
-def marking_of(net: Net, ss: StateSpace, index: int) -> dict[int, int]:
-    """Row ``index`` as a {place: tokens} dict (non-zero entries only)."""
-    row = ss.markings[index]
-    return {int(p): int(row[p]) for p in np.flatnonzero(row)}
-
-
 def as_digraph(net: Net, ss: StateSpace) -> nx.MultiDiGraph:
     """The reachability graph as a networkx ``MultiDiGraph`` (a ``DiGraph`` whose two
     markings may be joined by several firings), for networkx's algorithms and writers.
