@@ -70,3 +70,18 @@ def test_the_readme_quotes_what_mclc_prints(line: int, args: list[str], quoted: 
                           capture_output=True, text=True, timeout=300, check=False)
     missing = shown_in(quoted, (done.stdout + done.stderr).splitlines())
     assert not missing, f"README.md:{line}: not what mclc prints now: {missing}"
+
+
+def broken_tables(text: str) -> list[int]:
+    """Lines of ``text`` where a table row follows a blank line that follows a table row (a
+    Markdown table ends at a blank line: the rows after it are no longer a table)."""
+    lines = text.split("\n")
+    return [i + 1 for i in range(2, len(lines)) if lines[i].startswith("|")
+            and not lines[i - 1].strip() and lines[i - 2].startswith("|")
+            and not lines[i + 1 if i + 1 < len(lines) else i].startswith("|---")]
+
+
+def test_no_table_of_the_readme_is_cut_by_a_blank_line() -> None:
+    assert broken_tables("| a | b |\n|---|---|\n| 1 | 2 |\n\n| 3 | 4 |\n") == [5]
+    assert broken_tables("| a | b |\n|---|---|\n| 1 | 2 |\n\n| c | d |\n|---|---|\n") == []
+    assert broken_tables((REPO / "README.md").read_text(encoding="utf-8")) == []
