@@ -337,7 +337,7 @@ def _summary(compiled: Compiled) -> dict[str, Any]:
 def _print_text(compiled: Compiled, report: dict[str, Any], args: argparse.Namespace) -> None:
     for d in compiled.warnings:
         print(d.format(), file=sys.stderr)
-    name = compiled.mission.name or "(unnamed)"
+    name = compiled.name
     print(f"{compiled.source.name}: mission {name}: {report['tasks']} task calls, "
           f"{report['places']} places, {report['transitions']} transitions")
     for flag, what in ((args.dot, "full net"), (args.dot_tasks, "task view"),
