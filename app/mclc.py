@@ -21,6 +21,7 @@ from diagnostics import Diagnostic, MclError, Span
 from mcl import ast
 from mcl.api import Compiled, compile_file, parse_params
 
+from app.version import version_text
 from mission.exits import Exit  # the exit statuses of every command: docs/EXIT.md
 
 # With several files, mclc exits with the worst status: internal, invalid, failed, undecided,
@@ -38,6 +39,7 @@ def _parser() -> argparse.ArgumentParser:
                     "established); with several files, the worst ("
                     + ", ".join(str(int(e)) for e in reversed(SEVERITY))
                     + "). Every command's exit statuses: docs/EXIT.md.")
+    p.add_argument("--version", action="version", version=version_text("mclc"))
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="mission files (.mcl) or Petri nets (.pnml)")
     p.add_argument("--tasks", action="append", default=[], metavar="FILE",

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 from mcl import values
 from mcl.api import Compiled, compile_file, parse_params
 from mission.exits import Exit
+from mission.limits import mission_bound
 from mission.run import NotVerified, RunResult, run_mission
 from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
@@ -107,6 +108,24 @@ def _check_log(path: Path) -> None:
         raise OutputError(str(path), "--log", "permission denied")
 
 
+def _warn_late_faults(compiled: Compiled, injected: list[str], limit: float | None) -> None:
+    """A warning for each ``--inject`` fault set after the mission must have ended (its proved
+    worst case, or ``--max-time``): it would never happen."""
+    if not injected:
+        return
+    bound = mission_bound(compiled)
+    for item in injected:
+        kind, _, at = item.partition("@")
+        when = float(at)  # checked by the vehicle's kind already
+        if bound is not None and when > bound:
+            print(f"mcl run: warning: --inject {item}: the mission ends by {bound:g} s at the "
+                  f"latest (proved from its timeouts), so the {kind} never happens",
+                  file=sys.stderr)
+        elif limit is not None and when > limit:
+            print(f"mcl run: warning: --inject {item}: after --max-time {limit:g}, so the "
+                  f"{kind} never happens", file=sys.stderr)
+
+
 def _param_texts(overrides: dict[str, Any]) -> dict[str, str]:
     return {name: values.to_text(value) for name, (value, _) in overrides.items()}
 
@@ -118,6 +137,7 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
     for d in compiled.warnings:
         print(d.format(), file=sys.stderr)
     chosen = vehicles.build(args, owned)
+    _warn_late_faults(compiled, args.inject, args.max_time)
     log_path = Path(args.log) if args.log else Path("out/runs") / (
         f"{Path(args.mission).stem}-{time.strftime('%Y%m%d-%H%M%S')}.jsonl")
     if chosen.stack is not None and not args.no_images:  # the camera's images, beside the log

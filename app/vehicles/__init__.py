@@ -9,6 +9,7 @@ order ``mcl run --help`` shows them. A new kind is one new file and one line in 
 from __future__ import annotations
 
 import argparse
+import difflib
 import importlib
 from types import ModuleType
 
@@ -69,7 +70,10 @@ def build(args: argparse.Namespace, owned: Owned) -> Vehicle:
     if chosen is None:
         names = [usage(k) for k in known]
         listed = f"{', '.join(names[:-1])} or {names[-1]}" if len(names) > 1 else names[0]
-        raise Invalid(f"--vehicle {args.vehicle}: unknown kind of vehicle: use {listed}")
+        near = difflib.get_close_matches(name, [k.NAME for k in known], n=1, cutoff=0.6)
+        mean = f"did you mean {usage(next(k for k in known if k.NAME == near[0]))}? " if near \
+            else ""
+        raise Invalid(f"--vehicle {args.vehicle}: unknown kind of vehicle: {mean}use {listed}")
     for kind in known:
         if kind is chosen:
             continue

@@ -17,6 +17,7 @@ takes images while such a behaviour is enabled), the seabed ``tracker`` it needs
 
 from __future__ import annotations
 
+import difflib
 import math
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -50,15 +51,23 @@ FAULTS = ("leak", "overtemperature", "overpressure", "burial")  # burial: docs/S
 
 
 def parse_fault(text: str) -> tuple[str, float]:
-    """'leak@600' -> ("leak", 600.0); ValueError with what to write otherwise."""
+    """'leak@600' -> ("leak", 600.0); ValueError saying what is wrong and what to write."""
     kind, at, seconds = text.partition("@")
+    example = f"expected FAULT@SECONDS with FAULT one of {', '.join(FAULTS)}, e.g. leak@600"
+    if not at or kind not in FAULTS:
+        near = difflib.get_close_matches(kind, FAULTS, n=1, cutoff=0.6)
+        hint = f" (did you mean {near[0]}@{seconds or 600}?)" if near and at else ""
+        raise ValueError(f"{text}: {example}{hint}")
     try:
         when = float(seconds)
     except ValueError:
-        when = -1.0
-    if not at or kind not in FAULTS or not when >= 0:
-        raise ValueError(f"{text}: expected FAULT@SECONDS with FAULT one of "
-                         f"{', '.join(FAULTS)}, e.g. leak@600")
+        raise ValueError(f"{text}: {seconds!r} is not a number of seconds; {example}") from None
+    if not math.isfinite(when):
+        raise ValueError(f"{text}: {seconds} is not a finite number of seconds: the fault "
+                         "would never happen; e.g. leak@600")
+    if when < 0:
+        raise ValueError(f"{text}: {seconds} s is before the mission starts (mission time "
+                         "counts from 0 at its start); e.g. leak@600")
     return kind, when
 
 
