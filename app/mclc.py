@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 import traceback
 from collections.abc import Callable
@@ -72,6 +73,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--max-markings", type=_positive, default=5_000_000, metavar="N",
                    help="explicit route: stop after N markings; what the cut exploration "
                         "cannot decide is reported undecided (exit 4) (default 5,000,000)")
+    p.add_argument("--max-memory", type=_memory, default=1 << 30, metavar="SIZE",
+                   help="the memory the explicit route may use, e.g. 512MiB, 4GiB (default "
+                        "1GiB): its need is estimated before it starts; over it, auto takes "
+                        "the structural route (a mission) or the symbolic search (a 1-safe "
+                        "net), else the search stops there and says undecided (exit 4)")
     p.add_argument("--deadline", metavar="DURATION",
                    help="fail (exit 1) if some run can last longer, e.g. 45min, 1.5h, 600s; "
                         "prints the critical path (docs/DURATION.md)")
@@ -92,6 +98,23 @@ def _positive(text: str) -> int:
     if not 1 <= value < 2**31:
         raise argparse.ArgumentTypeError(f"must lie between 1 and 2**31 - 1, got {value}")
     return value
+
+
+MEMORY_UNITS = {"": 1, "b": 1, "k": 1 << 10, "kib": 1 << 10, "kb": 1000, "m": 1 << 20,
+                "mib": 1 << 20, "mb": 1000**2, "g": 1 << 30, "gib": 1 << 30, "gb": 1000**3,
+                "t": 1 << 40, "tib": 1 << 40, "tb": 1000**4}
+
+
+def _memory(text: str) -> int:
+    """A memory size: a number and a unit (B, KiB, MiB, GiB, TiB; KB.. in powers of 1000;
+    K, M, G, T as binary), e.g. 512MiB, 1.5GiB; at least 1 MiB."""
+    match = re.fullmatch(r"\s*([0-9][0-9_]*(?:\.[0-9]+)?)\s*([A-Za-z]*)\s*", text)
+    if match is None or match[2].lower() not in MEMORY_UNITS:
+        raise argparse.ArgumentTypeError(f"not a memory size: {text!r} (e.g. 512MiB, 4GiB)")
+    value = float(match[1].replace("_", "")) * MEMORY_UNITS[match[2].lower()]
+    if not (1 << 20) <= value < 2**63:
+        raise argparse.ArgumentTypeError(f"must be at least 1MiB, got {text!r}")
+    return int(value)
 
 
 class OutputError(MclError):
@@ -232,7 +255,7 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str,
         from mcl.analysis.verification import verify_mission
 
         verdict = verify_mission(compiled, args.method, max_markings=args.max_markings,
-                                 keep_graph=args.graphml is not None)
+                                 max_bytes=args.max_memory, keep_graph=args.graphml is not None)
         if args.graphml is not None:
             _write_graph(path, args.graphml, compiled.net, verdict.space,
                          "--method auto took the structural route")
@@ -295,7 +318,8 @@ def _pnml(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str
             {"severity": "error", "message": exc.message, "hint": None, "code": "pnml",
              "file": exc.path or path, "line": exc.line, "col": exc.col}]}
     method = "explicit" if args.method == "explicit" else "auto"
-    analysis, space = analyse_graph(net, method, arcs=args.graphml is not None)
+    analysis, space = analyse_graph(net, method, arcs=args.graphml is not None,
+                                    max_bytes=args.max_memory)
     if args.graphml is not None:
         _write_graph(path, args.graphml, net, space, "--method auto took the symbolic search")
     report = {"file": path, "status": "analysed", **analysis}
@@ -304,6 +328,9 @@ def _pnml(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str
         print(pnml_text(report))
         if args.graphml is not None:
             print(f"wrote reachability graph to {args.graphml}")
+    if not analysis["complete"]:  # a limit (markings, tokens, memory) cut the search
+        report["status"] = "undecided"
+        return Exit.UNDECIDED, report
     return Exit.OK, report
 
 

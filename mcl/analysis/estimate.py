@@ -22,22 +22,45 @@ def estimate(checked: Checked, body: ast.Block) -> tuple[float | None, list[str]
     return Nominal(checked).mission(body)
 
 
+Point = tuple[float, ...] | None  # where the vehicle was last sent (None: nowhere yet)
+Outcome = tuple[str, float] | None  # how a block ends and after how long (None: never)
+
+
 class Nominal:
     """One run where every task takes its ``estimate:`` and ends ok, timers fire on time and
-    watchers never fire. Not a proof: labelled as an estimate everywhere."""
+    watchers never fire. Not a proof: labelled as an estimate everywhere.
 
-    MAX_LAPS = 10_000
+    The run is deterministic, and the only thing a block's nominal run depends on besides the
+    block is the point the vehicle was last sent to (a distance is measured from it). So each
+    block is walked at most once per such point (a memo), and a WHILE whose lap starts again
+    from a point it started from before goes round for ever: it is never walked lap by lap
+    beyond the number of distinct points, and the cost is polynomial in the mission's size
+    (``steps`` counts the blocks entered), however deeply its loops nest.
+    """
 
     def __init__(self, checked: Checked):
         self.checked = checked
         self.notes: list[str] = []
         self.position: list[float] | None = None  # the last point a task was sent to
+        self.memo: dict[tuple[int, Point], tuple[Outcome, list[float] | None]] = {}
+        self.steps = 0  # blocks entered, memo hits included: the work done
 
     def mission(self, body: ast.Block) -> tuple[float | None, list[str]]:
         end = self.block(body)
-        return (None if end is None else end[1]), self.notes
+        return (None if end is None else end[1]), list(dict.fromkeys(self.notes))
 
-    def block(self, b: ast.Block) -> tuple[str, float] | None:
+    def block(self, b: ast.Block) -> Outcome:
+        """The nominal end of ``b`` started from the current point (memoised per point)."""
+        self.steps += 1
+        key = (id(b), None if self.position is None else tuple(self.position))
+        if key not in self.memo:
+            outcome = self.walk(b)
+            self.memo[key] = outcome, self.position
+        outcome, position = self.memo[key]
+        self.position = position
+        return outcome
+
+    def walk(self, b: ast.Block) -> Outcome:
         match b:
             case ast.Call():
                 return self.call(b)
@@ -73,26 +96,35 @@ class Nominal:
                     return rc
                 r = self.block(t if rc[0] == "ok" else e)  # type: ignore[arg-type]
                 return None if r is None else (r[0], rc[1] + r[1])
-            case ast.WhileDo(condition=c, body=body):
-                total = 0.0
-                for _ in range(self.MAX_LAPS):
-                    rc = self.block(c)
-                    if rc is None:
-                        return None
-                    total += rc[1]
-                    if rc[0] == "fail":
-                        return "ok", total
-                    rb = self.block(body)
-                    if rb is None:
-                        return None
-                    total += rb[1]
-                    if rb[0] == "fail":
-                        return "fail", total
-                self.notes.append(f"line {b.span.line}: WHILE goes round for ever nominally")
-                return None
+            case ast.WhileDo():
+                return self.while_do(b)
         raise TypeError(b)
 
-    def call(self, call: ast.Call) -> tuple[str, float] | None:
+    def while_do(self, w: ast.WhileDo) -> Outcome:
+        """Lap after lap until the condition fails or the body fails; a lap that starts from
+        a point an earlier lap started from repeats that lap for ever (the run is
+        deterministic), so there are at most as many laps as distinct points, plus one."""
+        total = 0.0
+        starts: set[Point] = set()
+        while (start := None if self.position is None else tuple(self.position)) \
+                not in starts:
+            starts.add(start)
+            rc = self.block(w.condition)
+            if rc is None:
+                return None
+            total += rc[1]
+            if rc[0] == "fail":
+                return "ok", total
+            rb = self.block(w.body)
+            if rb is None:
+                return None
+            total += rb[1]
+            if rb[0] == "fail":
+                return "fail", total
+        self.notes.append(f"line {w.span.line}: WHILE goes round for ever nominally")
+        return None
+
+    def call(self, call: ast.Call) -> Outcome:
         resolved = self.checked.resolved(call)
         form = resolved.form
         if form.immediate:

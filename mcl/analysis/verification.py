@@ -10,7 +10,9 @@
   plus the net itself) against the budget; under it, runs the explicit route with a marking
   limit that keeps it under the budget, and if that exploration is cut, completes the verdict
   with the structural route (a violation the explicit route saw stays: it is real); over it,
-  runs the structural route. It never exhausts memory and never fails for want of it.
+  runs the structural route. It never exhausts memory and never fails for want of it: should
+  the estimate fall short and the explicit route meet a MemoryError, auto takes the structural
+  route and explicit says undecided. ``mclc --max-memory`` sets the budget (default 1 GiB).
 
 Each property's ``method`` says which route established it.
 """
@@ -74,14 +76,21 @@ def verify_mission(compiled: Compiled, method: str = "auto", max_markings: int =
     if method == "explicit":
         if limit < 1:
             return _too_big(net, max_bytes)
-        return verify(net, max_markings=limit, keep_graph=keep_graph)
+        try:
+            return verify(net, max_markings=limit, keep_graph=keep_graph)
+        except MemoryError:  # the estimate fell short: say so, never crash
+            return _too_big(net, max_bytes, "ran out of memory")
     estimate = structural.mission_estimate(compiled.checked)
     budget = f"{max_bytes / 2**20:,.0f} MiB"
     if limit < 1 or explicit_cost(net, estimate) > max_bytes or estimate > limit:
         why = (f"auto: about {estimate:,.0f} markings estimated, over the explicit route's "
                f"budget of {limit:,} markings ({budget})")
         return structural.analyse(compiled.checked, net, note=why)
-    explicit = verify(net, max_markings=limit, keep_graph=keep_graph)
+    try:
+        explicit = verify(net, max_markings=limit, keep_graph=keep_graph)
+    except MemoryError:  # the estimate fell short: the structural route instead
+        return structural.analyse(compiled.checked, net, note=f"auto: the explicit route "
+                                  f"ran out of memory ({budget}): structural instead")
     if not any(r.undecided for r in explicit.results if r.severity == "error"):
         return explicit
     cut = explicit.markings >= limit
@@ -113,9 +122,9 @@ def merge(explicit: Verdict, structural: Verdict, cut: bool = True) -> Verdict:
     return out
 
 
-def _too_big(net: Net, max_bytes: int) -> Verdict:
+def _too_big(net: Net, max_bytes: int, what: str = "leaves no room for markings") -> Verdict:
     why = (f"undecided: the net ({len(net.places):,} places, {len(net.transitions):,} "
-           f"transitions) leaves no room for markings in {max_bytes / 2**20:,.0f} MiB")
+           f"transitions) {what} in {max_bytes / 2**20:,.0f} MiB")
     verdict = Verdict(net, 0, 0, 0.0)
     for name in ("one-safe", "proper-completion", "no-deadlock", "terminates", "no-zeno",
                  "behaviours-off-at-end", "behaviour-single-owner", "dof-exclusive",

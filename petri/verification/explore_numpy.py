@@ -27,6 +27,13 @@ def _keys(cells: Array) -> Array:
     return rows.view(np.dtype((np.void, rows.shape[1] * rows.itemsize))).ravel()
 
 
+# The successors of a BFS level are computed a slice of the level at a time, each slice's
+# candidate firings holding at most CHUNK_BYTES as int64 rows: a wide level of a large net
+# (Philosophers-PT-000050: 14.7 million candidates of 256 places, 28 GiB at once) never
+# allocates more than that. Slices are taken in row order, so the numbering is unchanged.
+CHUNK_BYTES = 64 << 20
+
+
 def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
                  ) -> tuple[Any, ...]:
     """Same contract as :func:`petri.verification.explore_numba.explore_rows`."""
@@ -40,38 +47,47 @@ def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
     n, lo = 1, 0
     status, at, stop_t = _DONE, -1, -1
     for _ in range(max_markings):  # one BFS level per round; each level adds a marking
-        frontier = levels[-1].astype(np.int64)
-        if not len(frontier):
+        level = levels[-1]
+        if not len(level):
             break
-        src, trans, succ = _successors(frontier, net, lo)
-        cut = len(src)
-        over = np.flatnonzero((succ > max_tokens).any(axis=1))
-        if over.size:
-            cut = int(over[0])
-            status, at, stop_t = _TOKEN_LIMIT, int(src[cut]), int(trans[cut])
-        src, trans = src[:cut], trans[:cut]
-        rows = succ[:cut].astype(m0.dtype)
-        keys = _keys(rows)
-        dst = _find(known, known_id, keys)
-        new = dst < 0
-        _, first, inverse = np.unique(keys[new], return_index=True, return_inverse=True)
-        order = np.argsort(first, kind="stable")  # number new markings by first discovery
-        rank = np.empty(len(order), dtype=np.int64)
-        rank[order] = np.arange(len(order))
-        dst[new] = n + rank[inverse.ravel()]
-        if n + len(order) > max_markings:
-            keep = np.flatnonzero(new)[first[order[max_markings - n]]]
-            status, at, stop_t = _MARKING_LIMIT, int(src[keep]), -1
-            src, trans, dst, rows, new = src[:keep], trans[:keep], dst[:keep], rows[:keep], \
-                new[:keep]
-            order = order[: max_markings - n]
-        found.append((src, dst, trans))
-        new_rows = np.flatnonzero(new)[first[order]]
-        levels.append(rows[new_rows])
-        parents.append(src[new_rows])
-        parent_ts.append(trans[new_rows].astype(np.int32))
-        known, known_id = _merge(known, known_id, keys[new_rows], n + np.arange(len(order)))
-        lo, n = n, n + len(order)
+        new_levels: list[Array] = []
+        for first_row, last_row in _slices(level, net):
+            frontier = level[first_row:last_row].astype(np.int64)
+            src, trans, succ = _successors(frontier, net, lo + first_row)
+            cut = len(src)
+            over = np.flatnonzero((succ > max_tokens).any(axis=1))
+            if over.size:
+                cut = int(over[0])
+                status, at, stop_t = _TOKEN_LIMIT, int(src[cut]), int(trans[cut])
+            src, trans = src[:cut], trans[:cut]
+            rows = succ[:cut].astype(m0.dtype)
+            del succ
+            keys = _keys(rows)
+            dst = _find(known, known_id, keys)
+            new = dst < 0
+            _, first, inverse = np.unique(keys[new], return_index=True, return_inverse=True)
+            order = np.argsort(first, kind="stable")  # number new markings by discovery
+            rank = np.empty(len(order), dtype=np.int64)
+            rank[order] = np.arange(len(order))
+            dst[new] = n + rank[inverse.ravel()]
+            if n + len(order) > max_markings:
+                keep = np.flatnonzero(new)[first[order[max_markings - n]]]
+                status, at, stop_t = _MARKING_LIMIT, int(src[keep]), -1
+                src, trans, dst, rows, new = src[:keep], trans[:keep], dst[:keep], \
+                    rows[:keep], new[:keep]
+                order = order[: max_markings - n]
+            found.append((src, dst, trans))
+            new_rows = np.flatnonzero(new)[first[order]]
+            new_levels.append(rows[new_rows])
+            parents.append(src[new_rows])
+            parent_ts.append(trans[new_rows].astype(np.int32))
+            known, known_id = _merge(known, known_id, keys[new_rows],
+                                     n + np.arange(len(order)))
+            n += len(order)
+            if status != _DONE:
+                break
+        lo += len(level)
+        levels.append(np.concatenate(new_levels) if new_levels else level[:0])
         if status != _DONE:
             break
     cells = np.concatenate(levels)
@@ -85,6 +101,22 @@ def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
         src, dst, trans = _none(), _none(), _none()
     return (cells, np.concatenate(parents), np.concatenate(parent_ts), src, dst, trans,
             status, at, stop_t, degree, fired)
+
+
+def _slices(level: Array, net: Any) -> list[tuple[int, int]]:
+    """Row ranges of ``level`` whose candidate firings fit :data:`CHUNK_BYTES` each (a
+    single row may exceed it: it is a slice of its own)."""
+    rows, places = np.nonzero(level)
+    per_row = np.bincount(rows, weights=net.rd_ptr[places + 1] - net.rd_ptr[places],
+                          minlength=len(level)) + len(net.sources)
+    cap = max(1, CHUNK_BYTES // (8 * level.shape[1]))
+    ends = np.cumsum(per_row)
+    cuts = [0]
+    while cuts[-1] < len(level):
+        base = ends[cuts[-1] - 1] if cuts[-1] else 0
+        nxt = int(np.searchsorted(ends, base + cap, side="right"))
+        cuts.append(min(len(level), max(nxt, cuts[-1] + 1)))
+    return list(zip(cuts[:-1], cuts[1:]))
 
 
 def _none() -> Array:
@@ -136,7 +168,7 @@ def _find(known: Array, known_id: Array, keys: Array) -> Array:
 
 
 def _merge(known: Array, known_id: Array, keys: Array, ids: Array) -> tuple[Array, Array]:
-    all_keys = np.concatenate([known, keys])
-    all_ids = np.concatenate([known_id, ids])
-    order = np.argsort(all_keys, kind="stable")
-    return all_keys[order], all_ids[order]
+    """The known keys with ``keys`` (new, unique) put in their sorted places: one pass."""
+    order = np.argsort(keys, kind="stable")
+    at = np.searchsorted(known, keys[order])
+    return np.insert(known, at, keys[order]), np.insert(known_id, at, ids[order])

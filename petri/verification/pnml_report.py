@@ -31,13 +31,18 @@ from petri.formats.pnml import PnmlError, read_pnml
 # TokenRing-PT-010, have small state spaces that the probe finishes.)
 EXPLICIT_PROBE = 500_000
 SYMBOLIC_SECONDS = 60.0
+# The memory the explicit search may use (``mclc --max-memory``): the markings it may keep are
+# estimated before it starts (petri/verification/reachability.py's markings_within) and the
+# search stops there, incomplete, rather than run out of memory. 1 GiB by default.
+MAX_BYTES = 1 << 30
 
 Report = dict[str, Any]
 
 
 def analyse(net: Net, method: str = "auto", max_markings: int = 20_000_000,
             max_tokens: int = 255, probe: int = EXPLICIT_PROBE,
-            symbolic_seconds: float = SYMBOLIC_SECONDS) -> Report:
+            symbolic_seconds: float = SYMBOLIC_SECONDS, max_bytes: float = MAX_BYTES
+            ) -> Report:
     """Answer the contest's state-space questions about ``net``.
 
     Keys: net, places, transitions, markings, arcs, max_tokens, deadlock_reachable,
@@ -45,17 +50,22 @@ def analyse(net: Net, method: str = "auto", max_markings: int = 20_000_000,
     and, when a limit stopped the search, stop_reason and unbounded_place. Answers that an
     incomplete search cannot give are None.
 
+    The explicit search keeps at most the markings that fit ``max_bytes`` (estimated before
+    it starts); past them it stops, incomplete, with a ``stop_reason`` that names the budget.
+    A MemoryError nevertheless (the symbolic search's BDDs, say) ends the analysis
+    incomplete too, with ``stop_reason`` "out of memory": it never reaches the caller.
+
     ``method="symbolic"`` raises :class:`petri.verification.symbolic.NotOneSafe` for a net that is not
     1-safe and :class:`petri.verification.symbolic.SymbolicLimit` after ``symbolic_seconds``.
     """
     return analyse_graph(net, method, max_markings, max_tokens, probe, symbolic_seconds,
-                         arcs=False)[0]
+                         arcs=False, max_bytes=max_bytes)[0]
 
 
 def analyse_graph(net: Net, method: str = "auto", max_markings: int = 20_000_000,
                   max_tokens: int = 255, probe: int = EXPLICIT_PROBE,
-                  symbolic_seconds: float = SYMBOLIC_SECONDS, arcs: bool = True
-                  ) -> tuple[Report, rg.StateSpace | None]:
+                  symbolic_seconds: float = SYMBOLIC_SECONDS, arcs: bool = True,
+                  max_bytes: float = MAX_BYTES) -> tuple[Report, rg.StateSpace | None]:
     """:func:`analyse`'s report and the explicit reachability graph it was made from, with
     its arcs (``arcs=True``) for :func:`petri.verification.reachability.as_digraph`; None
     when the symbolic search made the report."""
@@ -63,21 +73,42 @@ def analyse_graph(net: Net, method: str = "auto", max_markings: int = 20_000_000
         raise ValueError(f"unknown method {method!r}")
     start = time.perf_counter()
     space: rg.StateSpace | None = None
-    if method == "symbolic":
-        report = symbolic_report(net, symbolic.explore(net, time_limit=symbolic_seconds))
-    elif method == "explicit":
-        space = rg.explore(net, max_markings, max_tokens, arcs=arcs)
-        report = explicit_report(net, space)
-    else:
-        report, space = _auto(net, max_markings, max_tokens, probe, symbolic_seconds, arcs)
+    room = rg.markings_within(net, max_bytes, max_tokens, arcs)
+    budget = f"the memory budget of {max_bytes / 2**20:,.0f} MiB"
+    try:
+        if method == "symbolic":
+            report = symbolic_report(net, symbolic.explore(net, time_limit=symbolic_seconds))
+        elif room < 1:
+            report = unexplored_report(net, f"no room for markings in {budget}")
+        elif method == "explicit":
+            space = rg.explore(net, min(max_markings, room), max_tokens, arcs=arcs)
+            report = explicit_report(net, space)
+        else:
+            report, space = _auto(net, min(max_markings, room), max_tokens, probe,
+                                  symbolic_seconds, arcs)
+    except MemoryError:
+        space, report = None, unexplored_report(net, f"out of memory (within {budget})")
+    if space is not None and not space.complete and room < max_markings and \
+            space.n_markings >= room:
+        report["stop_reason"] = f"more than {room:,} markings: {budget}"
     report["seconds"] = round(time.perf_counter() - start, 3)
     return report, space
 
 
+def unexplored_report(net: Net, why: str) -> Report:
+    """The report of a net whose search could not run or finish: nothing known."""
+    report = _header(net)
+    report.update(markings=None, arcs=None, max_tokens=None, deadlock_reachable=None,
+                  dead_transitions=None, one_safe=None, complete=False, method="explicit",
+                  stop_reason=why, unbounded_place=None)
+    return report
+
+
 def _auto(net: Net, max_markings: int, max_tokens: int, probe: int,
           symbolic_seconds: float, arcs: bool) -> tuple[Report, rg.StateSpace | None]:
-    if symbolic.available() and symbolic.is_candidate(net) and probe < max_markings:
-        ss = rg.explore(net, max_markings=probe, max_tokens=max_tokens, arcs=arcs)
+    if symbolic.available() and symbolic.is_candidate(net):
+        ss = rg.explore(net, max_markings=min(probe, max_markings), max_tokens=max_tokens,
+                        arcs=arcs)
         if ss.complete:
             return explicit_report(net, ss), ss
         if rg.max_tokens(ss) <= 1:
@@ -86,6 +117,8 @@ def _auto(net: Net, max_markings: int, max_tokens: int, probe: int,
                 return symbolic_report(net, result), None
             except (symbolic.NotOneSafe, symbolic.SymbolicLimit):
                 pass  # explicit after all
+        if probe >= max_markings:
+            return explicit_report(net, ss), ss
     ss = rg.explore(net, max_markings, max_tokens, arcs=arcs)
     return explicit_report(net, ss), ss
 

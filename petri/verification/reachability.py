@@ -207,6 +207,31 @@ def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
     return ss
 
 
+# What the explicit search holds per marking at its peak, whichever engine: the row (token
+# counts padded to 64-bit words) about six times over (the rows, their hash table or sorted
+# keys, and the copy made when an array doubles or levels are joined), its parent (12 bytes),
+# and its arcs (about four per marking, three 32-bit integers each, doubled while growing) or,
+# without arcs, its number of successors.
+ROW_COPIES = 6
+ARC_BYTES = 4 * 12 * 2
+
+
+def bytes_per_marking(net: Net, max_tokens: int = 255, arcs: bool = True) -> int:
+    """An upper estimate of the bytes :func:`explore` holds per marking of ``net``."""
+    itemsize = np.dtype(row_dtype(max_tokens)).itemsize
+    row = -(-max(1, len(net.places)) * itemsize // 8) * 8
+    return ROW_COPIES * row + 12 + (ARC_BYTES if arcs else 4)
+
+
+def markings_within(net: Net, max_bytes: float, max_tokens: int = 255,
+                    arcs: bool = True) -> int:
+    """The most markings :func:`explore` may keep within ``max_bytes`` (0: none fit once
+    the net itself, a few words per arc, place and transition, is held)."""
+    net_bytes = 64.0 * (net.arc_count() + len(net.places) + len(net.transitions))
+    room = (max_bytes - net_bytes) // bytes_per_marking(net, max_tokens, arcs)
+    return int(max(0, min(room, 2**31 - 1)))
+
+
 def _unbounded_witness(net: Net, ss: StateSpace, at: int, transition: int) -> int | None:
     """A place that the Karp-Miller criterion proves unbounded, if the path shows one.
 

@@ -5,7 +5,11 @@ the contest's own per-family verdicts (GenericPropertiesVerdict.xml)."""
 from __future__ import annotations
 
 import csv
+import json
 import re
+import resource
+import subprocess
+import sys
 import tarfile
 from pathlib import Path
 
@@ -16,6 +20,7 @@ from petri.verification import symbolic
 from petri.net import Net
 from petri.formats.pnml import read_pnml
 from petri.verification.pnml_report import analyse
+from tests.support import REPO, budget, subprocess_env
 
 MCC = Path(__file__).resolve().parents[3] / "shared" / "mcc"
 pytestmark = pytest.mark.skipif(not (MCC / "ORACLE.tsv").is_file(),
@@ -166,3 +171,59 @@ def test_symbolic_refuses_a_net_that_is_not_one_safe(tmp_path: Path) -> None:
     with pytest.raises(symbolic.NotOneSafe, match="second token"):
         symbolic.explore(net)
     assert analyse(net, probe=10)["method"] == "explicit"  # auto falls back
+
+
+# -- a memory budget, never a MemoryError (issue 21) -------------------------------------------
+# ``mclc Philosophers-PT-000050/model.pnml`` on the default install (numpy, no numba) ended
+# "internal error: MemoryError: Unable to allocate 28.1 GiB", exit 3: one BFS level's
+# candidate firings at once. Run under an address-space limit, as a user's machine would be.
+ADDRESS_SPACE = 3 << 30
+ENGINES_RUN = {"installed": "", "default install (no numba)": "import sys; "
+               "sys.modules['numba'] = None; "}  # what `pip install mcl` without [large] has
+
+
+def mclc_limited(*args: str, prelude: str = "") -> subprocess.CompletedProcess[str]:
+    """mclc in a subprocess whose address space is capped at ADDRESS_SPACE."""
+    def cap() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (ADDRESS_SPACE, ADDRESS_SPACE))
+
+    code = prelude + "import sys; from app.mclc import main; sys.exit(main(sys.argv[1:]))"
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True,
+                          timeout=budget(60), cwd=REPO, env=subprocess_env(),
+                          stdin=subprocess.DEVNULL, preexec_fn=cap)
+
+
+@pytest.mark.parametrize("engine", list(ENGINES_RUN))
+def test_philosophers_50_gets_an_answer_within_the_memory_limit(engine: str,
+                                                                 tmp_path: Path) -> None:
+    model = extract("Philosophers-PT-000050", tmp_path) / "model.pnml"
+    run = mclc_limited(str(model), prelude=ENGINES_RUN[engine])
+    assert run.returncode in (0, 1, 4), run.stdout + run.stderr
+    assert "internal error" not in run.stdout + run.stderr
+    if DD:  # 1-safe: the symbolic search decides it once the explicit probe is cut
+        assert run.returncode == 0 and "symbolic" in run.stdout, run.stdout
+
+
+@pytest.mark.parametrize("engine", list(ENGINES_RUN))
+def test_the_explicit_search_stops_at_the_memory_budget(engine: str, tmp_path: Path) -> None:
+    model = extract("Philosophers-PT-000050", tmp_path) / "model.pnml"
+    net = read_pnml(model)
+    room = rg.markings_within(net, 16 << 20, arcs=False)
+    assert 0 < room < 20_000_000
+    run = mclc_limited(str(model), "--method", "explicit", "--max-memory", "16MiB", "--json",
+                       prelude=ENGINES_RUN[engine])
+    assert run.returncode == 4, run.stdout + run.stderr  # undecided, not a crash
+    report = json.loads(run.stdout)
+    assert report["complete"] is False and report["status"] == "undecided"
+    assert report["markings"] == room
+    assert report["stop_reason"] == (f"more than {room:,} markings: the memory budget of "
+                                     "16 MiB")
+    assert report["deadlock_reachable"] is None  # not seen in the part explored: unknown
+
+
+def test_a_budget_too_small_for_one_marking_is_undecided(tmp_path: Path) -> None:
+    model = extract("Philosophers-PT-000050", tmp_path) / "model.pnml"
+    net = read_pnml(model)
+    report = analyse(net, method="explicit", max_bytes=1000)
+    assert report["complete"] is False and report["markings"] is None
+    assert report["stop_reason"].startswith("no room for markings")

@@ -233,6 +233,32 @@ def test_numpy_fallback_numbers_markings_like_the_numba_kernel() -> None:
                 assert np.array_equal(getattr(a, key), getattr(b, key)), (net.name, key)
 
 
+def test_numpy_levels_in_slices_number_markings_as_whole_levels(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A level is expanded a slice at a time so that no level allocates more than
+    CHUNK_BYTES (issue 21: 28 GiB at once on Philosophers-PT-000050): slices of one row give
+    the same graph as whole levels."""
+    from petri.verification import explore_numpy
+
+    rng = np.random.default_rng(13)
+    compared = 0
+    for i in range(60):
+        net = random_net(rng, i)
+        for most, tokens in ((20_000_000, 6), (40, 200)):
+            whole = rg.explore(net, most, tokens, engine="numpy")
+            with monkeypatch.context() as m:
+                m.setattr(explore_numpy, "CHUNK_BYTES", 1)  # one row per slice
+                sliced = rg.explore(net, most, tokens, engine="numpy")
+            assert (whole.complete, whole.stop_reason, whole.unbounded_place) == \
+                (sliced.complete, sliced.stop_reason, sliced.unbounded_place), net.name
+            for key in ("markings", "src", "dst", "transition", "parent",
+                        "parent_transition"):
+                assert np.array_equal(getattr(whole, key), getattr(sliced, key)), \
+                    (net.name, key)
+            compared += whole.n_markings > 5
+    assert compared >= 20
+
+
 def to_pm4py(net: Net) -> tuple[object, object]:
     from pm4py.objects.petri_net.obj import Marking, PetriNet
     from pm4py.objects.petri_net.utils.petri_utils import add_arc_from_to
