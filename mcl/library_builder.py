@@ -23,7 +23,8 @@ from mcl.declarations import (
     Formal,
     TaskForm,
 )
-from mcl.parser import AstBuilder, suggest
+from mcl.ast_builder import AstBuilder
+from mcl.parser import suggest
 from mcl.values import FIELDS, KINDS, NUMERIC, UNITS, Range, check, limits, to_text
 
 

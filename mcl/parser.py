@@ -8,7 +8,6 @@ wrong in the same way); the same table is exercised by the tests.
 from __future__ import annotations
 
 import difflib
-import math
 from functools import lru_cache
 
 from lark import (
@@ -24,6 +23,7 @@ from lark import (
 from diagnostics import MclError, Source, Span, error, read_source
 
 from mcl import ast
+from mcl.ast_builder import AstBuilder, token_span
 
 KEYWORDS = ("MISSION", "PARAM", "USES", "TRY", "CATCH", "DO", "PARALLEL", "AND", "OR", "IF", "THEN",
             "ELSE", "WHILE")
@@ -162,37 +162,37 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
     if isinstance(token, Token) and previous is not None and previous.type == "NAME":
         if previous.upper() in KEYWORDS and previous != previous.upper():
             return error(source, f"keywords are upper case: write {previous.upper()}, "
-                         f"not {previous}", _tok_span(source, previous),
+                         f"not {previous}", token_span(source, previous),
                          f"replace '{previous}' with '{previous.upper()}'",
                          code="lower-case-keyword")
     if (isinstance(token, Token) and token.type == "NAME" and token.upper() in KEYWORDS
             and str(token) != token.upper()):
         return error(source, f"keywords are upper case: write {token.upper()}, not {token}",
-                     _tok_span(source, token), f"replace '{token}' with '{token.upper()}'",
+                     token_span(source, token), f"replace '{token}' with '{token.upper()}'",
                      code="lower-case-keyword")
     code = _after_item(exc, token, known_mistake(exc))
     if code is not None:
         message, hint, _ = KNOWN_MISTAKES[code]
         span = source.span(line, col)
         if code in ("trailing-semicolon", "call-needs-parentheses") and previous is not None:
-            span = _tok_span(source, previous)  # point at the ';' itself
+            span = token_span(source, previous)  # point at the ';' itself
         if code == "missing-semicolon" and previous is not None:
             span = source.span(previous.end_line or line, (previous.end_column or col))
         if code in ("unclosed-block", "missing-mission"):
             span = _end_span(source)
         if code == "text-after-mission" and isinstance(token, Token):
-            span = _tok_span(source, token)
+            span = token_span(source, token)
         return error(source, message, span, hint, code=code)
     if isinstance(exc, UnexpectedEOF) or (isinstance(token, Token) and token.type == "$END"):
         return error(source, "unexpected end of file", _end_span(source),
                      "a '}' or an item may be missing", code="unexpected-eof")
     assert isinstance(token, Token)
     if token.type == "NAME" and previous is not None and previous.type == "SIGNED_NUMBER":
-        return error(source, f"unknown unit '{token}'", _tok_span(source, token),
+        return error(source, f"unknown unit '{token}'", token_span(source, token),
                      "units: m, cm, mm, km (length); deg, rad (angle); s, ms, min, h (time)",
                      code="unknown-unit")
     expected = sorted(_pretty_terminal(t) for t in getattr(exc, "expected", ()) or ())
-    return error(source, f"unexpected {_pretty_token(token)}", _tok_span(source, token),
+    return error(source, f"unexpected {_pretty_token(token)}", token_span(source, token),
                  f"expected {_one_of(expected)}" if expected else "", code="syntax")
 
 
@@ -254,10 +254,6 @@ def _token_before(source: Source, line: int, col: int) -> Token | None:
     return previous
 
 
-def _tok_span(source: Source, tok: Token) -> Span:
-    return source.span(tok.line or 1, tok.column or 1, tok.end_line or 0, tok.end_column or 0)
-
-
 def _end_span(source: Source) -> Span:
     lines = source.text.rstrip().split("\n") or [""]  # lines as the parser counts them
     return source.span(len(lines), len(lines[-1].removesuffix("\r")) + 1)
@@ -304,111 +300,6 @@ def check_depth(source: Source, tree: Tree[Token]) -> None:
                             "flatten the mission: deep nesting is almost always a mistake",
                             code="too-deep")
         stack.extend((c, depth) for c in node.children if isinstance(c, Tree))
-
-
-# -- parse tree -> AST -----------------------------------------------------------------------
-class AstBuilder:
-    """Turns a lark parse tree of MCL (or of a value, or of a value in a task library) into
-    the AST, every node with its span in ``source``."""
-
-    def __init__(self, source: Source):
-        self.source = source
-
-    def span(self, node: Tree[Token] | Token) -> Span:
-        if isinstance(node, Token):
-            return _tok_span(self.source, node)
-        m = node.meta
-        return self.source.span(getattr(m, "line", 1), getattr(m, "column", 1),
-                                getattr(m, "end_line", 0), getattr(m, "end_column", 0))
-
-    def mission(self, tree: Tree[Token]) -> ast.Mission:
-        *headers, mission_tree = tree.children
-        params = tuple(self.param(p) for p in headers
-                       if isinstance(p, Tree) and p.data == "param")
-        uses = tuple(self.uses(u) for u in headers if isinstance(u, Tree) and u.data == "uses")
-        assert isinstance(mission_tree, Tree)
-        name_tok, block_tree = mission_tree.children
-        assert isinstance(block_tree, Tree)
-        name = str(name_tok) if name_tok is not None else None
-        return ast.Mission(name, self.block(block_tree), params, self.span(mission_tree), uses)
-
-    def uses(self, tree: Tree[Token]) -> ast.Uses:
-        tok = tree.children[0]
-        assert isinstance(tok, Token)
-        return ast.Uses(str(tok)[1:-1], self.span(tok))
-
-    def param(self, tree: Tree[Token]) -> ast.Param:
-        name, value = tree.children
-        assert isinstance(name, Token)
-        val = self.value(value) if value is not None else None
-        return ast.Param(str(name), val, self.span(name))
-
-    def block(self, tree: Tree[Token]) -> ast.Block:
-        """A braced block; a single item stands for itself, several make a Sequence."""
-        items = tuple(self.item(c) for c in tree.children if isinstance(c, Tree))
-        if len(items) == 1:
-            return items[0]
-        return ast.Sequence(items, self.span(tree))
-
-    def item(self, tree: Tree[Token]) -> ast.Block:
-        kids = [c for c in tree.children if isinstance(c, Tree)]
-        span = self.span(tree)
-        match tree.data:
-            case "call":
-                name = tree.children[0]
-                assert isinstance(name, Token)
-                args = tuple(self.arg(a) for a in tree.children[1:] if a is not None)
-                return ast.Call(str(name), args, span)
-            case "try_catch_do":
-                t, c, d = (self.block(k) for k in kids)
-                return ast.TryCatchDo(t, c, d, span)
-            case "parallel_and":
-                return ast.ParallelAnd(tuple(self.block(k) for k in kids), span)
-            case "parallel_or":
-                return ast.ParallelOr(tuple(self.block(k) for k in kids), span)
-            case "if_then_else":
-                cond, then, other = tree.children
-                assert isinstance(cond, Tree) and isinstance(then, Tree)
-                return ast.IfThenElse(self.block(cond), self.block(then),
-                                      self.block(other) if isinstance(other, Tree) else None,
-                                      span)
-            case "while_do":
-                c, b = (self.block(k) for k in kids)
-                return ast.WhileDo(c, b, span)
-        raise AssertionError(f"unknown item {tree.data}")
-
-    def arg(self, node: Tree[Token] | Token) -> ast.Arg:
-        if isinstance(node, Tree) and node.data == "named_arg":
-            name, value = node.children
-            assert isinstance(name, Token)
-            return ast.Arg(self.value(value), str(name), self.span(node))
-        plain = self.value(node)
-        return ast.Arg(plain, None, plain.span)
-
-    def value(self, node: Tree[Token] | Token | None) -> ast.Value:
-        if isinstance(node, Token):  # a bare NAME can arrive untransformed
-            return ast.Ref(str(node), self.span(node))
-        assert isinstance(node, Tree)
-        span = self.span(node)
-        match node.data:
-            case "number":
-                num, unit = node.children
-                value = float(str(num))
-                if not math.isfinite(value):
-                    raise error(self.source, f"number {num} is out of range", span,
-                                "numbers must be finite (below about 1.8e308)",
-                                code="number-out-of-range")
-                return ast.Number(value, str(unit) if unit else None, span)
-            case "ref":
-                return ast.Ref(str(node.children[0]), span)
-            case "list":
-                items = tuple(self.value(c) for c in node.children if c is not None)
-                return ast.ListValue(items, span)
-            case "point":
-                return ast.Point(tuple(self.value(c) for c in node.children), span)
-            case "value":
-                return self.value(node.children[0])
-        raise AssertionError(f"unknown value {node.data}")
 
 
 def suggest(name: str, candidates: list[str]) -> str:
