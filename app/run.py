@@ -147,7 +147,7 @@ def _summary(mission: str, result: RunResult, chosen: Vehicle, out: Output,
     """How the run ended, where its log is, and what the vehicle kind adds (the link's
     figures, the simulated survey and its mosaic)."""
     shown = {"timeout": "STOPPED AT THE TIME LIMIT", "stuck": "STUCK", "stopped": "STOPPED",
-             "error": "STOPPED BY AN ERROR"}.get(result.status, result.status.upper())
+             "error": "STOPPED BY AN ERROR", "zeno": "STOPPED: NO TIME PASSED"}.get(result.status, result.status.upper())
     vehicle_clock = ""
     if result.vehicle_clock is not None:  # the vehicle's clock did not start with the mission
         start, end = result.vehicle_clock

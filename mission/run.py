@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING, Any
 from diagnostics import MclError
 from mcl.analysis.verification import verify_mission
 from mcl.api import Compiled
-from petri.execution.player import Player, Record
+from petri.execution.player import MAX_FIRINGS_PER_INSTANT, Player, Record
 from petri.execution.runlog import RunLog, net_digest
 from petri.execution.runner import MissionClock, Outcome, run
 from petri.execution.status import MissionStatus
@@ -55,7 +55,7 @@ if TYPE_CHECKING:
     from aal.messages import Vehicle as Adapter
 
 HOW = {"ok": "ok", "fail": "fail", "timeout": "time limit", "stuck": "stuck",
-       "stopped": "signal", "error": "error"}  # the runner's status -> the end record's how
+       "stopped": "signal", "error": "error", "zeno": "zeno"}  # the runner's status -> the end record's how
 TIME_NOTE = "mission time: 0 at the mission's start"
 
 
@@ -83,8 +83,8 @@ class RunResult:
     """What a run did: how it ended, when, and what its end record says."""
 
     mission: str  # the mission's name
-    status: str  # how the runner ended it: ok, fail, timeout, stuck, stopped, error
-    how: str  # the end record's how: ok, fail, time limit, stuck, signal, error
+    status: str  # how the runner ended it: ok, fail, timeout, stuck, stopped, error, zeno
+    how: str  # the end record's how: ok, fail, time limit, stuck, signal, error, zeno
     time: float  # mission time at the end, s
     reason: str  # why the runner stopped it ("" when the mission ended by itself)
     why: str  # the end record's why
@@ -110,7 +110,8 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
                 observers: Iterable[Callable[[Record], None]] = (), verify: bool = True,
                 clock: MissionClock | None = None,
                 end_note: Callable[[], str | None] | None = None,
-                during: contextlib.AbstractContextManager[Any] | None = None) -> RunResult:
+                during: contextlib.AbstractContextManager[Any] | None = None,
+                max_firings_per_instant: int = MAX_FIRINGS_PER_INSTANT) -> RunResult:
     """Run ``compiled`` on ``vehicle`` to its end (the steps: this module's docstring).
 
     ``log``: the run log's path (None: no log); ``header``: what its header says of the run
@@ -121,7 +122,10 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     (:class:`NotVerified`); ``clock``: the mission clock, for an observer that shows the
     vehicle's clock beside mission time; ``end_note``: what the end record's why adds, asked
     once the run has ended; ``during``: entered once the mission is checked and verified,
-    before its log opens, and left after its end record (``mcl run``'s signal handlers).
+    before its log opens, and left after its end record (``mcl run``'s signal handlers);
+    ``max_firings_per_instant``: past this many firings at one mission instant the player
+    stops the mission through its abort (a loop that goes round without time passing: the
+    end record's how is ``zeno``, exit 4).
     Raises :class:`~diagnostics.MclError` when the vehicle cannot run the mission (before
     the first action)."""
     limit = time_bound(compiled, max_time)
@@ -137,7 +141,8 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     name = compiled.mission.name or Path(compiled.source.name).stem
     about = {"mission": name, "file": compiled.source.name, "net": net_digest(compiled.net),
              **(header or {}), "max_time": limit[0], "time": TIME_NOTE}
-    play = _Play(compiled, chosen, name, Player(compiled.net),
+    play = _Play(compiled, chosen, name, Player(compiled.net,
+                        max_firings_per_instant=max_firings_per_instant),
                  clock if clock is not None else MissionClock())
     with contextlib.ExitStack() as held:
         if during is not None:

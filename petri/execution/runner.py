@@ -19,7 +19,9 @@ tasks and switch their latches off, then the player switches off anything left â
 - ``stop()`` asks for it (a signal, an operator);
 - the vehicle or its adapter raised an exception (sending, receiving, reading its clock);
 - an observer of the player raised one (the run log on a full disk): the player finishes
-  the call under way first, so the net is never left half-fired.
+  the call under way first, so the net is never left half-fired;
+- the player itself aborted a loop that went round without mission time passing
+  (:attr:`Player.zeno`; its bound ``max_firings_per_instant``): the outcome is ``zeno``.
 
 After an abort the vehicle is given a bounded time (``confirm`` wall seconds) to confirm that
 what was switched off is off, where its link can say so (``vehicle.confirm_off``).
@@ -56,7 +58,7 @@ class MissionClock:
 
 @dataclass
 class Outcome:
-    status: str  # "ok" | "fail" | "stuck" | "timeout" | "stopped" | "error"
+    status: str  # "ok" | "fail" | "stuck" | "timeout" | "stopped" | "error" | "zeno"
     time: float  # mission time at the end
     rounds: int
     reason: str = ""
@@ -75,9 +77,10 @@ def run(player: Player, vehicle: Vehicle, mission: str, max_time: float = UNBOUN
     failures: list[str] = []  # what the vehicle raised while an action was sent
     disabled: list[str] = []  # behaviours disabled once the run is being stopped
     stopping = [False]
+    taken = [0]  # the orders taken from the player's outbox
 
-    def send(order: Order) -> None:
-        if stopping[0] and order.kind == "disable":
+    def send(order: Order, stop: bool = False) -> None:
+        if (stopping[0] or stop) and order.kind == "disable":
             disabled.append(order.behaviour)
         try:
             vehicle.send(ActionMessage(next(seq), order.t, mission, order.task, order.kind,
@@ -90,7 +93,9 @@ def run(player: Player, vehicle: Vehicle, mission: str, max_time: float = UNBOUN
     def drain() -> None:
         """Send the orders waiting in the player's outbox, oldest first."""
         while player.outbox:
-            send(player.outbox.popleft())
+            taken[0] += 1  # an order of the player's own abort of a spinning loop: a stop
+            send(player.outbox.popleft(),
+                 player.zeno is not None and taken[0] > player.zeno_ordered)
 
     def end(status: str, t: float, rounds: int, reason: str) -> Outcome:
         stopping[0] = True
@@ -182,6 +187,8 @@ def run(player: Player, vehicle: Vehicle, mission: str, max_time: float = UNBOUN
 def _ended(player: Player, vehicle: Vehicle, now: float, rounds: int, disabled: list[str],
            confirm: float) -> Outcome:
     outcome = Outcome(player.status, now, rounds)
+    if player.zeno is not None:  # the player stopped a loop that spun at one instant
+        outcome = Outcome("zeno", now, rounds, player.zeno, switched_off=sorted(set(disabled)))
     outcome.confirmed = _confirm(vehicle, sorted(set(disabled)), confirm)
     return outcome
 
