@@ -155,6 +155,8 @@ def _summary(mission: str, result: RunResult, chosen: Vehicle, out: Output,
     out.say(f"{mission}: mission {result.mission} ended {shown} after {result.time:.1f} s "
             f"of mission time{vehicle_clock} ({result.firings} firings)"
             + (f": {result.reason}" if result.reason else ""))
+    for handled in result.handled:  # what the mission's CATCH blocks caught
+        out.say(f"  handled: {handled.text()}")
     if result.status not in ("ok", "fail") or result.switched_off:
         out.say(f"  switched off: {', '.join(result.switched_off) or 'nothing was on'}; "
                 f"{result.confirmed}")

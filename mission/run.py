@@ -22,7 +22,10 @@ The steps, in order:
 5. the player and the runner (:func:`petri.execution.runner.run`), which end every run that
    does not end by itself through the mission's abort;
 6. the end record: how and why the run ended, its exit status (:mod:`mission.exits`), what was
-   switched off and what the vehicle confirmed of it. A bug of ours still writes it (``error``,
+   switched off and what the vehicle confirmed of it, and every event a CATCH handled
+   (``handled``: :mod:`mission.handled`). A handled alarm does not change the exit status: a
+   mission that caught a leak and surfaced as written ends OK (exit 0), and says so; a handler
+   that ends with the core library's ``Fail()`` ends the mission FAIL (exit 1). A bug of ours still writes it (``error``,
    exit 3) before the exception goes on.
 
 Nothing here is process-wide: no signal handler (``stop`` asks for a stop; ``mcl run`` turns
@@ -48,6 +51,7 @@ from petri.execution.status import MissionStatus
 
 from mission.capabilities import check_capabilities
 from mission.exits import Exit, run_exit
+from mission.handled import CatchWatch, Handled
 from mission.limits import max_time as time_bound
 from mission.vehicle import Vehicle
 
@@ -97,6 +101,7 @@ class RunResult:
     log: Path | None  # the run log (None: none was written)
     vehicle_clock: tuple[float, float] | None  # the vehicle's clock at start and end, when it
     #                                            differs from mission time
+    handled: tuple[Handled, ...] = ()  # every event a CATCH handled, in order
 
     @property
     def ok(self) -> bool:
@@ -155,7 +160,8 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
                        exit=result.exit, status=play.player.status,
                        vehicle_t=round(play.clock.vehicle(outcome.time), 6),
                        switched_off=outcome.switched_off, confirmed=outcome.confirmed,
-                       limit=limit[0], limit_from=limit[1])
+                       limit=limit[0], limit_from=limit[1],
+                       handled=[h.as_record() for h in result.handled])
     return result
 
 
@@ -168,6 +174,7 @@ class _Play:
         self.player, self.clock = player, clock
         self.last_t = 0.0  # the mission time of the last record (the end never goes back)
         self.stopped: list[Stop] = []  # the first stop asked for
+        self.catches = CatchWatch(compiled)  # what the CATCH blocks handled
 
     def seen(self, record: Record) -> None:
         self.last_t = record.t
@@ -185,7 +192,7 @@ class _Play:
                         check_capabilities(self.compiled, said)
                 if opened is not None:
                     player.observers.append(opened)
-                player.observers.append(self.seen)
+                player.observers.extend((self.seen, self.catches))
                 if chosen.status is not None:  # observers of the mission: mcl monitor
                     player.observers.append(MissionStatus(
                         player, self.name, chosen.status.run, chosen.status.publish_status,
@@ -242,4 +249,5 @@ class _Play:
             confirmed=outcome.confirmed, limit=limit[0], limit_from=limit[1],
             log=opened.path if opened is not None else None,
             vehicle_clock=((clock.vehicle(0.0), clock.vehicle(outcome.time))
-                           if clock.origin else None))
+                           if clock.origin else None),
+            handled=tuple(self.catches.handled))
