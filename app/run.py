@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 from mcl import values
 from mcl.api import Compiled, compile_file, parse_params
 from mission.exits import Exit
-from mission.run import NotVerified, RunResult, run_mission
+from mission.run import NotVerified, NoVehicle, RunResult, run_mission
 from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 
@@ -133,13 +133,26 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
         result = run_mission(
             compiled, chosen, log=log_path, header=header, max_time=args.max_time,
             stop=stops.request, verify=not args.no_verify, clock=clock, end_note=out.note,
-            observers=[] if args.quiet else [_Timeline(compiled, clock, out)], during=stops)
+            observers=[] if args.quiet else [_Timeline(compiled, clock, out)], during=stops,
+            waiting=_waiting)
+    except NoVehicle as exc:  # refused before the start: nothing was sent
+        print(f"mcl run: {exc}\n  run log: {log_path}", file=sys.stderr)
+        return Exit.NO_VEHICLE
     except NotVerified as exc:
         print(f"{args.mission}: not verified ({', '.join(exc.failed)}): refusing to run it\n"
               f"  hint: see 'mclc {args.mission}'; --no-verify runs it anyway", file=sys.stderr)
         return Exit.FAILED
     _summary(args.mission, result, chosen, out, log_path)
     return result.exit
+
+
+def _waiting(where: str, seconds: float) -> None:
+    """Progress while the vehicle is connected (standard error)."""
+    try:
+        print(f"mcl run: waiting for the vehicle at {where} ({seconds:.0f} s)", file=sys.stderr,
+              flush=True)
+    except (OSError, ValueError):  # a closed standard error: the run goes on
+        pass
 
 
 def _summary(mission: str, result: RunResult, chosen: Vehicle, out: Output,

@@ -27,6 +27,8 @@ class Exit(IntEnum):
     #                before its end (the time limit, stuck, a loop that spun at one instant),
     #                --timeout ran out first
     VEHICLE = 5  # the vehicle or its adapter failed: the run was stopped by its error
+    NO_VEHICLE = 6  # no vehicle answered while connecting: the mission never started,
+    #                 nothing was sent
 
 
 def signalled(signum: int) -> int:

@@ -17,7 +17,12 @@ The steps, in order:
    nothing is written or sent);
 3. verification (:func:`mcl.analysis.verification.verify_mission`): an unverified mission is
    refused (:class:`NotVerified`) unless ``verify=False``;
-4. the run log opens (its header); the vehicle is connected; a remote vehicle's own declaration
+4. the run log opens (its header); the vehicle is connected (``waiting`` hears, every second,
+   how long it has been waiting); a link lost while connecting with no vehicle that ever
+   answered (no HEARTBEAT, no liveliness token) is :class:`NoVehicle`: the mission never
+   started, nothing was sent, and the end record says so (``how: "no vehicle"``, exit 6); a
+   vehicle that answered but refused the run (GUIDED, arming, access control) is
+   ``Link.lost`` for the mission, as a loss later is; a remote vehicle's own declaration
    is checked again (a refusal now is logged: the end record says ``refused``, exit 2);
 5. the player and the runner (:func:`petri.execution.runner.run`), which end every run that
    does not end by itself through the mission's abort;
@@ -36,7 +41,9 @@ state. Several runs go side by side in one process, one thread each (examples/tw
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterable, Mapping
+import threading
+import time
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -53,7 +60,7 @@ from mission.capabilities import check_capabilities
 from mission.exits import Exit, run_exit
 from mission.handled import CatchWatch, Handled
 from mission.limits import max_time as time_bound
-from mission.vehicle import Vehicle
+from mission.vehicle import Answers, Vehicle
 
 if TYPE_CHECKING:
     from aal.messages import Vehicle as Adapter
@@ -61,6 +68,7 @@ if TYPE_CHECKING:
 HOW = {"ok": "ok", "fail": "fail", "timeout": "time limit", "stuck": "stuck",
        "stopped": "signal", "error": "error", "zeno": "zeno"}  # the runner's status -> the end record's how
 TIME_NOTE = "mission time: 0 at the mission's start"
+PROGRESS_EVERY = 1.0  # wall s between two words of progress while connecting
 
 
 @dataclass(frozen=True)
@@ -80,6 +88,18 @@ class NotVerified(MclError):
         message = f"not verified ({', '.join(failed)}): refusing to run it"
         super().__init__(message, hint="mclc shows why; verify=False runs it anyway",
                          code="not-verified", text=message)
+
+
+class NoVehicle(MclError):
+    """No vehicle answered while connecting: the mission never started and nothing was
+    sent. ``reason``: what the link says, e.g. "no vehicle answered
+    at udpin:127.0.0.1:14550 within 10 s (no HEARTBEAT)"."""
+
+    def __init__(self, reason: str):
+        self.reason = reason
+        message = f"{reason}: the mission never started"
+        super().__init__(message, hint="start the vehicle first (mcl vehicle), or check "
+                         "--vehicle", code="no-vehicle", text=message)
 
 
 @dataclass(frozen=True)
@@ -116,6 +136,7 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
                 clock: MissionClock | None = None,
                 end_note: Callable[[], str | None] | None = None,
                 during: contextlib.AbstractContextManager[Any] | None = None,
+                waiting: Callable[[str, float], None] | None = None,
                 max_firings_per_instant: int = MAX_FIRINGS_PER_INSTANT) -> RunResult:
     """Run ``compiled`` on ``vehicle`` to its end (the steps: this module's docstring).
 
@@ -128,11 +149,12 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     vehicle's clock beside mission time; ``end_note``: what the end record's why adds, asked
     once the run has ended; ``during``: entered once the mission is checked and verified,
     before its log opens, and left after its end record (``mcl run``'s signal handlers);
-    ``max_firings_per_instant``: past this many firings at one mission instant the player
+    ``waiting``: told ``(where, seconds)`` every second while a vehicle with a link is being
+    connected (``mcl run``'s progress); ``max_firings_per_instant``: past this many firings at one mission instant the player
     stops the mission through its abort (a loop that goes round without time passing: the
     end record's how is ``zeno``, exit 4).
     Raises :class:`~diagnostics.MclError` when the vehicle cannot run the mission (before
-    the first action)."""
+    the first action), :class:`NoVehicle` when no vehicle answered while connecting."""
     limit = time_bound(compiled, max_time)
     chosen = vehicle if isinstance(vehicle, Vehicle) else Vehicle.around(vehicle)
     said = chosen.declares.declaration() if chosen.declares is not None else None
@@ -153,7 +175,7 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
         if during is not None:
             held.enter_context(during)
         opened = held.enter_context(RunLog(log, about)) if log is not None else None
-        outcome = play.run(opened, observers, limit[0], stop)
+        outcome = play.run(opened, observers, limit[0], stop, waiting)
         result = play.result(outcome, end_note, limit, opened)
         if opened is not None:
             opened.end(max(outcome.time, play.last_t), result.how, result.why,
@@ -163,6 +185,30 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
                        limit=limit[0], limit_from=limit[1],
                        handled=[h.as_record() for h in result.handled])
     return result
+
+
+@contextlib.contextmanager
+def connecting(chosen: Vehicle, waiting: Callable[[str, float], None] | None
+               ) -> Iterator[None]:
+    """While the vehicle is being connected: ``waiting(where, seconds)`` every second, from a
+    thread of its own (the connection blocks this one), for a vehicle with a link."""
+    if waiting is None or chosen.link is None:
+        yield
+        return
+    done = threading.Event()
+    started = time.monotonic()
+
+    def tick() -> None:
+        while not done.wait(PROGRESS_EVERY):
+            waiting(chosen.where or "the vehicle", time.monotonic() - started)
+
+    ticker = threading.Thread(target=tick, name="connecting", daemon=True)
+    ticker.start()
+    try:
+        yield
+    finally:
+        done.set()
+        ticker.join()
 
 
 class _Play:
@@ -180,13 +226,20 @@ class _Play:
         self.last_t = record.t
 
     def run(self, opened: RunLog | None, observers: Iterable[Callable[[Record], None]],
-            limit: float, stop: Callable[[], Stop | str | None] | None) -> Outcome:
-        """Connect, check the vehicle's own word, and run; a refusal or a bug of ours is
-        logged (the end record) before it goes on."""
+            limit: float, stop: Callable[[], Stop | str | None] | None,
+            waiting: Callable[[str, float], None] | None = None) -> Outcome:
+        """Connect, check the vehicle's own word, and run; no vehicle, a refusal or a bug of
+        ours is logged (the end record) before it goes on."""
         chosen, player = self.chosen, self.player
         try:
-            with chosen.adapter:
-                if chosen.declares is not None and not (chosen.link and chosen.link.lost):
+            with contextlib.ExitStack() as held:
+                with connecting(chosen, waiting):
+                    held.enter_context(chosen.adapter)
+                link = chosen.link
+                if (link is not None and link.lost and isinstance(link, Answers)
+                        and not link.answered):  # nobody there: the mission never starts
+                    raise NoVehicle(link.lost_reason or "no vehicle answered")
+                if chosen.declares is not None:
                     said = chosen.declares.declaration()  # a remote vehicle's own word
                     if said is not None:
                         check_capabilities(self.compiled, said)
@@ -200,6 +253,11 @@ class _Play:
                 player.observers.extend(observers)
                 return run(player, chosen.adapter, self.name, max_time=limit,
                            stop=self.asking(stop), clock=self.clock)
+        except NoVehicle as exc:  # the mission never started: nothing was sent
+            if opened is not None:
+                opened.end(0.0, "no vehicle", str(exc), exit=Exit.NO_VEHICLE,
+                           status=player.status)
+            raise
         except MclError as exc:  # refused, or a vehicle that cannot be reached: nothing sent
             first = exc.diagnostics[0].message if exc.diagnostics else str(exc)
             if opened is not None:
