@@ -9,6 +9,13 @@ signals (SIGINT, SIGTERM, SIGHUP abort the mission through its net) and a standa
 that never raises (``app/safe_exit.py``). Every exit but a refusal before the start goes
 through the mission's abort, and the run log's last record (``"kind": "end"``) says how and
 why the run ended, with its exit status: docs/EXIT.md (the table: ``mission/exits.py``).
+
+The summary lists every event a CATCH handled (``handled: Alarms.leak at 600.1 s (CATCH at line
+49) -> DO ended ok``); a mission that handled an alarm and ended ok exits 0, as its author
+wrote it (a handler that ends with ``Fail()`` makes it exit 1). While a remote vehicle is
+being connected it says ``waiting for the vehicle at ADDRESS (N s)`` on standard error each
+second; if none answers, the run is refused before the mission starts ("no vehicle answered
+at ADDRESS within N s"), exit 6.
 """
 
 from __future__ import annotations
