@@ -9,6 +9,13 @@ signals (SIGINT, SIGTERM, SIGHUP abort the mission through its net) and a standa
 that never raises (``app/safe_exit.py``). Every exit but a refusal before the start goes
 through the mission's abort, and the run log's last record (``"kind": "end"``) says how and
 why the run ended, with its exit status: docs/EXIT.md (the table: ``mission/exits.py``).
+
+The summary lists every event a CATCH handled (``handled: Alarms.leak at 600.1 s (CATCH at line
+49) -> DO ended ok``); a mission that handled an alarm and ended ok exits 0, as its author
+wrote it (a handler that ends with ``Fail()`` makes it exit 1). While a remote vehicle is
+being connected it says ``waiting for the vehicle at ADDRESS (N s)`` on standard error each
+second; if none answers, the run is refused before the mission starts ("no vehicle answered
+at ADDRESS within N s"), exit 6.
 """
 
 from __future__ import annotations
@@ -25,7 +32,7 @@ from mcl import values
 from mcl.api import Compiled, compile_file, parse_params
 from mission.exits import Exit
 from mission.limits import mission_bound
-from mission.run import NotVerified, RunResult, run_mission
+from mission.run import NotVerified, NoVehicle, RunResult, run_mission
 from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 
@@ -153,7 +160,11 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
         result = run_mission(
             compiled, chosen, log=log_path, header=header, max_time=args.max_time,
             stop=stops.request, verify=not args.no_verify, clock=clock, end_note=out.note,
-            observers=[] if args.quiet else [_Timeline(compiled, clock, out)], during=stops)
+            observers=[] if args.quiet else [_Timeline(compiled, clock, out)], during=stops,
+            waiting=_waiting)
+    except NoVehicle as exc:  # refused before the start: nothing was sent
+        print(f"mcl run: {exc}\n  run log: {log_path}", file=sys.stderr)
+        return Exit.NO_VEHICLE
     except NotVerified as exc:
         print(f"{args.mission}: not verified ({', '.join(exc.failed)}): refusing to run it\n"
               f"  hint: see 'mclc {args.mission}'; --no-verify runs it anyway", file=sys.stderr)
@@ -162,12 +173,21 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
     return result.exit
 
 
+def _waiting(where: str, seconds: float) -> None:
+    """Progress while the vehicle is connected (standard error)."""
+    try:
+        print(f"mcl run: waiting for the vehicle at {where} ({seconds:.0f} s)", file=sys.stderr,
+              flush=True)
+    except (OSError, ValueError):  # a closed standard error: the run goes on
+        pass
+
+
 def _summary(mission: str, result: RunResult, chosen: Vehicle, out: Output,
              log_path: Path) -> None:
     """How the run ended, where its log is, and what the vehicle kind adds (the link's
     figures, the simulated survey and its mosaic)."""
     shown = {"timeout": "STOPPED AT THE TIME LIMIT", "stuck": "STUCK", "stopped": "STOPPED",
-             "error": "STOPPED BY AN ERROR"}.get(result.status, result.status.upper())
+             "error": "STOPPED BY AN ERROR", "zeno": "STOPPED: NO TIME PASSED"}.get(result.status, result.status.upper())
     vehicle_clock = ""
     if result.vehicle_clock is not None:  # the vehicle's clock did not start with the mission
         start, end = result.vehicle_clock
@@ -175,6 +195,8 @@ def _summary(mission: str, result: RunResult, chosen: Vehicle, out: Output,
     out.say(f"{mission}: mission {result.mission} ended {shown} after {result.time:.1f} s "
             f"of mission time{vehicle_clock} ({result.firings} firings)"
             + (f": {result.reason}" if result.reason else ""))
+    for handled in result.handled:  # what the mission's CATCH blocks caught
+        out.say(f"  handled: {handled.text()}")
     if result.status not in ("ok", "fail") or result.switched_off:
         out.say(f"  switched off: {', '.join(result.switched_off) or 'nothing was on'}; "
                 f"{result.confirmed}")

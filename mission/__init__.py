@@ -10,6 +10,8 @@
   vehicle declares? :func:`max_time` and :func:`mission_bound` (``mission/limits.py``): how long
   it may run.
 - :class:`Exit` (``mission/exits.py``): the exit statuses of every command (docs/EXIT.md).
+- :class:`Handled` (``mission/handled.py``): an event a CATCH handled, as a run tells it;
+  :class:`NoVehicle`: no vehicle answered, so the mission never started.
 
 The names are loaded when first used, for start-up speed: ``mclc`` imports
 :mod:`mission.exits` alone, not the player and the verifier.
@@ -24,7 +26,8 @@ if TYPE_CHECKING:
     from mission.capabilities import check_capabilities, declared_behaviours
     from mission.exits import Exit
     from mission.limits import max_time, mission_bound
-    from mission.run import NotVerified, RunResult, Stop, run_mission
+    from mission.handled import Handled
+    from mission.run import NotVerified, NoVehicle, RunResult, Stop, run_mission
     from mission.simulated import simulated_vehicle
     from mission.vehicle import Vehicle
 
@@ -33,9 +36,10 @@ HOMES = {  # each public name -> the module that defines it
     "NotVerified": "mission.run", "simulated_vehicle": "mission.simulated",
     "Vehicle": "mission.vehicle", "check_capabilities": "mission.capabilities",
     "declared_behaviours": "mission.capabilities", "max_time": "mission.limits",
-    "mission_bound": "mission.limits", "Exit": "mission.exits",
+    "mission_bound": "mission.limits", "Exit": "mission.exits", "NoVehicle": "mission.run",
+    "Handled": "mission.handled",
 }
-__all__ = ["Exit", "NotVerified", "RunResult", "Stop", "Vehicle", "check_capabilities",
+__all__ = ["Exit", "Handled", "NoVehicle", "NotVerified", "RunResult", "Stop", "Vehicle", "check_capabilities",
            "declared_behaviours", "max_time", "mission_bound", "run_mission", "simulated_vehicle"]
 
 

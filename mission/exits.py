@@ -24,8 +24,11 @@ class Exit(IntEnum):
     INVALID = 2  # invalid input: an option, a file, a mission the vehicle cannot run
     INTERNAL = 3  # an internal error: a bug in mcl
     UNDECIDED = 4  # no verdict: a property could not be decided, the mission was stopped
-    #                before its end (the time limit, stuck), --timeout ran out first
+    #                before its end (the time limit, stuck, a loop that spun at one instant),
+    #                --timeout ran out first
     VEHICLE = 5  # the vehicle or its adapter failed: the run was stopped by its error
+    NO_VEHICLE = 6  # no vehicle answered while connecting: the mission never started,
+    #                 nothing was sent
 
 
 def signalled(signum: int) -> int:
@@ -35,7 +38,7 @@ def signalled(signum: int) -> int:
 
 RUN_STATUS = {  # how the runner ended a run (petri.execution.runner.Outcome) -> its exit
     "ok": Exit.OK, "fail": Exit.FAILED, "timeout": Exit.UNDECIDED, "stuck": Exit.UNDECIDED,
-    "stopped": Exit.UNDECIDED, "error": Exit.VEHICLE,
+    "stopped": Exit.UNDECIDED, "error": Exit.VEHICLE, "zeno": Exit.UNDECIDED,
 }
 
 

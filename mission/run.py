@@ -17,12 +17,20 @@ The steps, in order:
    nothing is written or sent);
 3. verification (:func:`mcl.analysis.verification.verify_mission`): an unverified mission is
    refused (:class:`NotVerified`) unless ``verify=False``;
-4. the run log opens (its header); the vehicle is connected; a remote vehicle's own declaration
+4. the run log opens (its header); the vehicle is connected (``waiting`` hears, every second,
+   how long it has been waiting); a link lost while connecting with no vehicle that ever
+   answered (no HEARTBEAT, no liveliness token) is :class:`NoVehicle`: the mission never
+   started, nothing was sent, and the end record says so (``how: "no vehicle"``, exit 6); a
+   vehicle that answered but refused the run (GUIDED, arming, access control) is
+   ``Link.lost`` for the mission, as a loss later is; a remote vehicle's own declaration
    is checked again (a refusal now is logged: the end record says ``refused``, exit 2);
 5. the player and the runner (:func:`petri.execution.runner.run`), which end every run that
    does not end by itself through the mission's abort;
 6. the end record: how and why the run ended, its exit status (:mod:`mission.exits`), what was
-   switched off and what the vehicle confirmed of it. A bug of ours still writes it (``error``,
+   switched off and what the vehicle confirmed of it, and every event a CATCH handled
+   (``handled``: :mod:`mission.handled`). A handled alarm does not change the exit status: a
+   mission that caught a leak and surfaced as written ends OK (exit 0), and says so; a handler
+   that ends with the core library's ``Fail()`` ends the mission FAIL (exit 1). A bug of ours still writes it (``error``,
    exit 3) before the exception goes on.
 
 Nothing here is process-wide: no signal handler (``stop`` asks for a stop; ``mcl run`` turns
@@ -33,7 +41,9 @@ state. Several runs go side by side in one process, one thread each (examples/tw
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterable, Mapping
+import threading
+import time
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -41,22 +51,24 @@ from typing import TYPE_CHECKING, Any
 from diagnostics import MclError
 from mcl.analysis.verification import verify_mission
 from mcl.api import Compiled
-from petri.execution.player import Player, Record
+from petri.execution.player import MAX_FIRINGS_PER_INSTANT, Player, Record
 from petri.execution.runlog import RunLog, net_digest
 from petri.execution.runner import MissionClock, Outcome, run
 from petri.execution.status import MissionStatus
 
 from mission.capabilities import check_capabilities
 from mission.exits import Exit, run_exit
+from mission.handled import CatchWatch, Handled
 from mission.limits import max_time as time_bound
-from mission.vehicle import Vehicle
+from mission.vehicle import Answers, Vehicle
 
 if TYPE_CHECKING:
     from aal.messages import Vehicle as Adapter
 
 HOW = {"ok": "ok", "fail": "fail", "timeout": "time limit", "stuck": "stuck",
-       "stopped": "signal", "error": "error"}  # the runner's status -> the end record's how
+       "stopped": "signal", "error": "error", "zeno": "zeno"}  # the runner's status -> the end record's how
 TIME_NOTE = "mission time: 0 at the mission's start"
+PROGRESS_EVERY = 1.0  # wall s between two words of progress while connecting
 
 
 @dataclass(frozen=True)
@@ -78,13 +90,25 @@ class NotVerified(MclError):
                          code="not-verified", text=message)
 
 
+class NoVehicle(MclError):
+    """No vehicle answered while connecting: the mission never started and nothing was
+    sent. ``reason``: what the link says, e.g. "no vehicle answered
+    at udpin:127.0.0.1:14550 within 10 s (no HEARTBEAT)"."""
+
+    def __init__(self, reason: str):
+        self.reason = reason
+        message = f"{reason}: the mission never started"
+        super().__init__(message, hint="start the vehicle first (mcl vehicle), or check "
+                         "--vehicle", code="no-vehicle", text=message)
+
+
 @dataclass(frozen=True)
 class RunResult:
     """What a run did: how it ended, when, and what its end record says."""
 
     mission: str  # the mission's name
-    status: str  # how the runner ended it: ok, fail, timeout, stuck, stopped, error
-    how: str  # the end record's how: ok, fail, time limit, stuck, signal, error
+    status: str  # how the runner ended it: ok, fail, timeout, stuck, stopped, error, zeno
+    how: str  # the end record's how: ok, fail, time limit, stuck, signal, error, zeno
     time: float  # mission time at the end, s
     reason: str  # why the runner stopped it ("" when the mission ended by itself)
     why: str  # the end record's why
@@ -97,6 +121,7 @@ class RunResult:
     log: Path | None  # the run log (None: none was written)
     vehicle_clock: tuple[float, float] | None  # the vehicle's clock at start and end, when it
     #                                            differs from mission time
+    handled: tuple[Handled, ...] = ()  # every event a CATCH handled, in order
 
     @property
     def ok(self) -> bool:
@@ -110,7 +135,9 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
                 observers: Iterable[Callable[[Record], None]] = (), verify: bool = True,
                 clock: MissionClock | None = None,
                 end_note: Callable[[], str | None] | None = None,
-                during: contextlib.AbstractContextManager[Any] | None = None) -> RunResult:
+                during: contextlib.AbstractContextManager[Any] | None = None,
+                waiting: Callable[[str, float], None] | None = None,
+                max_firings_per_instant: int = MAX_FIRINGS_PER_INSTANT) -> RunResult:
     """Run ``compiled`` on ``vehicle`` to its end (the steps: this module's docstring).
 
     ``log``: the run log's path (None: no log); ``header``: what its header says of the run
@@ -121,9 +148,13 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     (:class:`NotVerified`); ``clock``: the mission clock, for an observer that shows the
     vehicle's clock beside mission time; ``end_note``: what the end record's why adds, asked
     once the run has ended; ``during``: entered once the mission is checked and verified,
-    before its log opens, and left after its end record (``mcl run``'s signal handlers).
+    before its log opens, and left after its end record (``mcl run``'s signal handlers);
+    ``waiting``: told ``(where, seconds)`` every second while a vehicle with a link is being
+    connected (``mcl run``'s progress); ``max_firings_per_instant``: past this many firings at one mission instant the player
+    stops the mission through its abort (a loop that goes round without time passing: the
+    end record's how is ``zeno``, exit 4).
     Raises :class:`~diagnostics.MclError` when the vehicle cannot run the mission (before
-    the first action)."""
+    the first action), :class:`NoVehicle` when no vehicle answered while connecting."""
     limit = time_bound(compiled, max_time)
     chosen = vehicle if isinstance(vehicle, Vehicle) else Vehicle.around(vehicle)
     said = chosen.declares.declaration() if chosen.declares is not None else None
@@ -137,21 +168,47 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     name = compiled.name
     about = {"mission": name, "file": compiled.source.name, "net": net_digest(compiled.net),
              **(header or {}), "max_time": limit[0], "time": TIME_NOTE}
-    play = _Play(compiled, chosen, name, Player(compiled.net),
+    play = _Play(compiled, chosen, name, Player(compiled.net,
+                        max_firings_per_instant=max_firings_per_instant),
                  clock if clock is not None else MissionClock())
     with contextlib.ExitStack() as held:
         if during is not None:
             held.enter_context(during)
         opened = held.enter_context(RunLog(log, about)) if log is not None else None
-        outcome = play.run(opened, observers, limit[0], stop)
+        outcome = play.run(opened, observers, limit[0], stop, waiting)
         result = play.result(outcome, end_note, limit, opened)
         if opened is not None:
             opened.end(max(outcome.time, play.last_t), result.how, result.why,
                        exit=result.exit, status=play.player.status,
                        vehicle_t=round(play.clock.vehicle(outcome.time), 6),
                        switched_off=outcome.switched_off, confirmed=outcome.confirmed,
-                       limit=limit[0], limit_from=limit[1])
+                       limit=limit[0], limit_from=limit[1],
+                       handled=[h.as_record() for h in result.handled])
     return result
+
+
+@contextlib.contextmanager
+def connecting(chosen: Vehicle, waiting: Callable[[str, float], None] | None
+               ) -> Iterator[None]:
+    """While the vehicle is being connected: ``waiting(where, seconds)`` every second, from a
+    thread of its own (the connection blocks this one), for a vehicle with a link."""
+    if waiting is None or chosen.link is None:
+        yield
+        return
+    done = threading.Event()
+    started = time.monotonic()
+
+    def tick() -> None:
+        while not done.wait(PROGRESS_EVERY):
+            waiting(chosen.where or "the vehicle", time.monotonic() - started)
+
+    ticker = threading.Thread(target=tick, name="connecting", daemon=True)
+    ticker.start()
+    try:
+        yield
+    finally:
+        done.set()
+        ticker.join()
 
 
 class _Play:
@@ -163,24 +220,32 @@ class _Play:
         self.player, self.clock = player, clock
         self.last_t = 0.0  # the mission time of the last record (the end never goes back)
         self.stopped: list[Stop] = []  # the first stop asked for
+        self.catches = CatchWatch(compiled)  # what the CATCH blocks handled
 
     def seen(self, record: Record) -> None:
         self.last_t = record.t
 
     def run(self, opened: RunLog | None, observers: Iterable[Callable[[Record], None]],
-            limit: float, stop: Callable[[], Stop | str | None] | None) -> Outcome:
-        """Connect, check the vehicle's own word, and run; a refusal or a bug of ours is
-        logged (the end record) before it goes on."""
+            limit: float, stop: Callable[[], Stop | str | None] | None,
+            waiting: Callable[[str, float], None] | None = None) -> Outcome:
+        """Connect, check the vehicle's own word, and run; no vehicle, a refusal or a bug of
+        ours is logged (the end record) before it goes on."""
         chosen, player = self.chosen, self.player
         try:
-            with chosen.adapter:
-                if chosen.declares is not None and not (chosen.link and chosen.link.lost):
+            with contextlib.ExitStack() as held:
+                with connecting(chosen, waiting):
+                    held.enter_context(chosen.adapter)
+                link = chosen.link
+                if (link is not None and link.lost and isinstance(link, Answers)
+                        and not link.answered):  # nobody there: the mission never starts
+                    raise NoVehicle(link.lost_reason or "no vehicle answered")
+                if chosen.declares is not None:
                     said = chosen.declares.declaration()  # a remote vehicle's own word
                     if said is not None:
                         check_capabilities(self.compiled, said)
                 if opened is not None:
                     player.observers.append(opened)
-                player.observers.append(self.seen)
+                player.observers.extend((self.seen, self.catches))
                 if chosen.status is not None:  # observers of the mission: mcl monitor
                     player.observers.append(MissionStatus(
                         player, self.name, chosen.status.run, chosen.status.publish_status,
@@ -188,6 +253,11 @@ class _Play:
                 player.observers.extend(observers)
                 return run(player, chosen.adapter, self.name, max_time=limit,
                            stop=self.asking(stop), clock=self.clock)
+        except NoVehicle as exc:  # the mission never started: nothing was sent
+            if opened is not None:
+                opened.end(0.0, "no vehicle", str(exc), exit=Exit.NO_VEHICLE,
+                           status=player.status)
+            raise
         except MclError as exc:  # refused, or a vehicle that cannot be reached: nothing sent
             first = exc.diagnostics[0].message if exc.diagnostics else str(exc)
             if opened is not None:
@@ -237,4 +307,5 @@ class _Play:
             confirmed=outcome.confirmed, limit=limit[0], limit_from=limit[1],
             log=opened.path if opened is not None else None,
             vehicle_clock=((clock.vehicle(0.0), clock.vehicle(outcome.time))
-                           if clock.origin else None))
+                           if clock.origin else None),
+            handled=tuple(self.catches.handled))

@@ -37,6 +37,15 @@ class Link(Protocol):
 
 
 @runtime_checkable
+class Answers(Protocol):
+    """A link that knows whether any vehicle answered since it was opened (a MAVLink
+    HEARTBEAT, a Zenoh liveliness token): a link lost while nobody answered is no vehicle."""
+
+    @property
+    def answered(self) -> bool: ...
+
+
+@runtime_checkable
 class StatusFeed(Protocol):
     """Takes the mission's status, for ``mcl monitor``; ``run`` names this player's run."""
 
@@ -62,6 +71,7 @@ class Vehicle:
     link: Link | None = None
     status: StatusFeed | None = None
     summary: Summary | None = None
+    where: str = ""  # where the vehicle is reached (a URL, an endpoint), for messages
 
     @classmethod
     def around(cls, adapter: Adapter) -> Vehicle:

@@ -70,6 +70,7 @@ class ZenohVehicle(RemoteVehicle):
                                               security=security, role="player",
                                               scouting=scouting)
         self._alive = threading.Event()  # the vehicle's token is present
+        self._answered = threading.Event()  # the vehicle's token has been seen once
         self._clocked = threading.Event()  # a clock message has arrived
         self._taken = threading.Event()  # the vehicle's telemetry names this run
         self.dropped = 0  # invalid events received and dropped
@@ -84,6 +85,11 @@ class ZenohVehicle(RemoteVehicle):
         self._active: list[str] | None = None  # the vehicle's behaviours on, per telemetry
         self._active_t = -1.0  # the vehicle time of that telemetry
         self._sent_t = 0.0  # vehicle time when the last action was sent
+
+    @property
+    def answered(self) -> bool:
+        """Has the vehicle answered since the session opened (its liveliness token)?"""
+        return self._answered.is_set()
 
     # -- context manager ----------------------------------------------------------------------
     def __enter__(self) -> ZenohVehicle:
@@ -118,8 +124,9 @@ class ZenohVehicle(RemoteVehicle):
         (else ``Link.lost``), and the action publisher matched so that no action is lost."""
         k, deadline = self.keys, time.monotonic() + self.connect_timeout
         if not self._alive.wait(self.connect_timeout):
-            self.link_lost(f"no vehicle token on {k['alive_vehicle']} within "
-                           f"{self.connect_timeout:g} s (endpoint {self.endpoint})")
+            self.link_lost(f"no vehicle answered at zenoh:{self.endpoint} within "
+                            f"{self.connect_timeout:g} s (no vehicle token on "
+                            f"{k['alive_vehicle']})")
             return
         self._clocked.wait(max(0.0, deadline - time.monotonic()))
         if not self._taken.wait(max(0.0, deadline - time.monotonic())):
@@ -206,6 +213,7 @@ class ZenohVehicle(RemoteVehicle):
     def _on_liveliness(self, sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:
             self._alive.set()
+            self._answered.set()
         else:
             self._alive.clear()
             self.link_lost(f"the vehicle's token {sample.key_expr} went away")

@@ -33,4 +33,5 @@ def build(where: str, args: argparse.Namespace) -> Vehicle:
         raise Invalid(str(exc)) from None
     adapter = MavlinkVehicle(where or DEFAULT_URL, signing_key=key,
                              require_signing=args.require_signing)
-    return Vehicle(adapter, declares=adapter, link=adapter, summary=adapter)
+    return Vehicle(adapter, declares=adapter, link=adapter, summary=adapter,
+                   where=f"mavlink:{adapter.url}")

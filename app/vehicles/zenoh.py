@@ -36,4 +36,5 @@ def build(where: str, args: argparse.Namespace) -> Vehicle:
     except ValueError as exc:
         raise Invalid(f"--vehicle {args.vehicle}: error: {exc}", verbatim=True) from None
     adapter = ZenohVehicle(endpoint, "auv", security=security, scouting=args.scouting)
-    return Vehicle(adapter, declares=adapter, link=adapter, status=adapter)
+    return Vehicle(adapter, declares=adapter, link=adapter, status=adapter,
+                   where=f"zenoh:{endpoint}")

@@ -15,6 +15,10 @@ timers. The rules, in order of precedence:
    most once (one that an earlier firing of the same event disabled does not fire). An event
    nobody waits for is logged and ignored; ``Link.lost`` that no block waits for aborts the
    mission (the ``Mission.abort`` transition).
+4. *No spinning at one instant*: past ``max_firings_per_instant`` firings at one mission
+   instant (a loop whose events a vehicle answers at once, so that mission time never moves),
+   or when one transition would fire twice in one chain of immediate firings, the player aborts
+   the mission and says why in :attr:`Player.zeno` (the run's end record: ``how: "zeno"``).
 
 Time comes from outside (``now`` arguments): simulated time and wall time run the same code.
 The same events at the same times give the same firings. The rules themselves (enabled, fire,
@@ -46,8 +50,10 @@ from petri.net import Action, Net, resolve
 from petri.semantics import LINK_LOST, MISSION_ABORT, Semantics, block_of
 
 MAX_IMMEDIATE_FIRINGS = 1_000_000  # per step: a bound on any loop, never reached by a sound net
+MAX_FIRINGS_PER_INSTANT = 10_000  # at one mission instant: past it, a loop spins without time
+#                                   passing (a vehicle that answers at once), and is stopped
 
-__all__ = ["LINK_LOST", "MISSION_ABORT", "Order", "Player", "Record"]
+__all__ = ["LINK_LOST", "MAX_FIRINGS_PER_INSTANT", "MISSION_ABORT", "Order", "Player", "Record"]
 
 
 class Order(NamedTuple):
@@ -80,6 +86,12 @@ class Player:
     outbox: deque[Order] = field(init=False, default_factory=deque)
     # how the records reach the observers (petri/execution/reporting.py)
     reporting: Reporting = field(init=False, repr=False, compare=False)
+    # past this many firings at one mission instant the mission is aborted (rule 4)
+    max_firings_per_instant: int = MAX_FIRINGS_PER_INSTANT
+    # why the player aborted a loop that went round without time passing (None: it did not)
+    zeno: str | None = field(init=False, default=None)
+    ordered: int = field(init=False, default=0)  # the orders ever put in the outbox
+    zeno_ordered: int = field(init=False, default=0)  # ... before the abort of such a loop
 
     def __post_init__(self) -> None:
         self.rules = Semantics(self.net)
@@ -91,6 +103,8 @@ class Player:
         self._clock = float("-inf")  # the time of the last firing: never goes back
         self._instant: dict[int, float] = {}  # transition -> the instant it last fired at
         self.reporting = Reporting(self.observers)
+        self._instant_at = float("-inf")  # the mission instant of the last firing...
+        self._instant_firings = 0  # ...and how many firings it has seen
 
     # -- the three ways a transition fires -------------------------------------------------
     @whole
@@ -125,8 +139,10 @@ class Player:
             if self._instant.get(t) == self._clock and self.status == "running":
                 tr = self.net.transitions[t]
                 where = f" at line {tr.origin.line}" if tr.origin else ""
-                self.abort(self._clock, f"a loop goes round without time passing ({tr.name}"
-                                        f"{where} fires twice at {self._clock:g} s)")
+                self._stop_spinning(f"a loop goes round without time passing ({tr.name}"
+                                    f"{where} fires twice at {self._clock:g} s)")
+                break
+            if self._spinning(t):
                 break
             self._instant[t] = self._clock
             self._fire(t, self._clock, cause)
@@ -187,6 +203,8 @@ class Player:
         self._instant.clear()  # an event starts a new chain of firings in this instant
         count = 0
         for t in waiting:
+            if self._spinning(t):
+                return count
             if self.enabled(t):
                 self._instant[t] = self._clock
                 self._fire(t, now, event)
@@ -196,6 +214,24 @@ class Player:
 
     def _waiting_for(self, event: str) -> list[int]:
         return [t for t in self.rules.waiting.get(event, []) if self.enabled(t)]
+
+    def _spinning(self, t: int) -> bool:
+        """Would firing ``t`` now pass the bound of firings at one instant (rule 4)? If so,
+        the mission is aborted (and True)."""
+        if self._clock != self._instant_at or self.status != "running":
+            return False
+        if self._instant_firings < self.max_firings_per_instant:
+            return False
+        tr = self.net.transitions[t]
+        where = f" (line {tr.origin.line})" if tr.origin else ""
+        self._stop_spinning(f"more than {self.max_firings_per_instant:,} firings at "
+                            f"{self._clock:g} s of mission time: a loop goes round without "
+                            f"time passing, the next was {tr.name}{where}")
+        return True
+
+    def _stop_spinning(self, reason: str) -> None:
+        self.zeno, self.zeno_ordered = reason, self.ordered
+        self.abort(self._clock, reason)
 
     @whole
     def abort(self, now: float, reason: str) -> None:
@@ -264,6 +300,9 @@ class Player:
         try:
             rules.fire(self.marking, t)
             self.fired += 1
+            if now != self._instant_at:  # time has passed: a new instant
+                self._instant_at, self._instant_firings = now, 0
+            self._instant_firings += 1
             task = block_of(tr.name)
             self._emit(now, "fire", {"transition": tr.name, "index": t, "cause": cause,
                                      "label": tr.label, "construct": tr.origin.text
@@ -296,6 +335,7 @@ class Player:
         elif action.kind == "enable":
             self.behaviours_on[action.behaviour] = task
         self.outbox.append(Order(now, task, action.kind, action.behaviour, params))
+        self.ordered += 1
         self._emit(now, "action", {"action": action.kind, "behaviour": action.behaviour,
                                    "params": params, "task": task})
 

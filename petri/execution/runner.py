@@ -19,7 +19,9 @@ tasks and switch their latches off, then the player switches off anything left â
 - ``stop()`` asks for it (a signal, an operator);
 - the vehicle or its adapter raised an exception (sending, receiving, reading its clock);
 - an observer of the player raised one (the run log on a full disk): the player finishes
-  the call under way first, so the net is never left half-fired.
+  the call under way first, so the net is never left half-fired;
+- the player itself aborted a loop that went round without mission time passing
+  (:attr:`Player.zeno`; its bound ``max_firings_per_instant``): the outcome is ``zeno``.
 
 After an abort the vehicle is given a bounded time (``confirm`` wall seconds) to confirm that
 what was switched off is off, where its link can say so (``vehicle.confirm_off``).
@@ -57,7 +59,7 @@ class MissionClock:
 
 @dataclass
 class Outcome:
-    status: str  # "ok" | "fail" | "stuck" | "timeout" | "stopped" | "error"
+    status: str  # "ok" | "fail" | "stuck" | "timeout" | "stopped" | "error" | "zeno"
     time: float  # mission time at the end
     rounds: int
     reason: str = ""
@@ -109,11 +111,13 @@ class Run:
         self.last_seq = -1  # the sequence number of the last event delivered
         self.now = 0.0  # mission time at the last reading of the vehicle's clock
         self.rounds = 0
+        self.taken = 0  # the orders taken from the player's outbox
 
     # -- orders out ---------------------------------------------------------------------------
-    def send(self, order: Order) -> None:
-        """Send one order; what the vehicle raises is kept, to stop the run at the next round."""
-        if self.stopping and order.kind == "disable":
+    def send(self, order: Order, stop: bool = False) -> None:
+        """Send one order; what the vehicle raises is kept, to stop the run at the next round.
+        ``stop``: the order belongs to a stop (a disable then counts as switched off)."""
+        if (self.stopping or stop) and order.kind == "disable":
             self.disabled.append(order.behaviour)
         try:
             self.vehicle.send(ActionMessage(next(self.seq), order.t, self.mission, order.task,
@@ -127,7 +131,9 @@ class Run:
         """Send the orders waiting in the player's outbox, oldest first."""
         outbox = self.player.outbox
         while outbox:
-            self.send(outbox.popleft())
+            self.taken += 1  # an order of the player's own abort of a spinning loop: a stop
+            self.send(outbox.popleft(),
+                      self.player.zeno is not None and self.taken > self.player.zeno_ordered)
 
     # -- the loop -----------------------------------------------------------------------------
     def mission_time(self) -> float:
@@ -209,8 +215,12 @@ class Run:
 
     # -- the end ------------------------------------------------------------------------------
     def ended(self, now: float) -> Outcome:
-        """The mission ended by itself, ok or fail."""
+        """The mission ended by itself, ok or fail, or the player stopped a loop that spun at
+        one instant (``zeno``)."""
         outcome = Outcome(self.player.status, now, self.rounds)
+        if self.player.zeno is not None:
+            outcome = Outcome("zeno", now, self.rounds, self.player.zeno,
+                              switched_off=sorted(set(self.disabled)))
         outcome.confirmed = self.confirmation(sorted(set(self.disabled)))
         return outcome
 

@@ -181,3 +181,21 @@ def test_a_bare_adapter_or_a_vehicle_run_alike() -> None:
     bare = run_mission(dam(), scripted())
     wrapped = run_mission(dam(), Vehicle(scripted(), declares=None))  # no capability check
     assert (bare.status, bare.firings) == (wrapped.status, wrapped.firings) == ("ok", 41)
+
+
+def test_a_loop_that_spins_at_one_instant_ends_zeno_in_the_log(tmp_path: Path) -> None:
+    # Issue 21: on a vehicle that answers at once this loop never lets mission time move; the
+    # player stops it through the abort past the stated bound, and the end record says so.
+    mission = write(tmp_path, "MISSION spin { WHILE { GoTo((-1, 0, 1, 0)) } DO { Surface() } }")
+    script = write(tmp_path, '[behaviours.GoTo]\non_enable = { after = 0.0, event = "reached" }'
+                   '\n[behaviours.Surface]\non_enable = { after = 0.0, event = "surfaced" }\n',
+                   "now.toml")
+    log = tmp_path / "spin.jsonl"
+    result = run_mission(compile_file(str(mission), require_values=True), scripted(script),
+                         log=log, max_firings_per_instant=200)
+    assert (result.status, result.how, result.exit) == ("zeno", "zeno", Exit.UNDECIDED)
+    assert result.time == 0.0 and 200 <= result.firings <= 220
+    end = records(log)[-1]
+    assert end["kind"] == "end" and end["how"] == "zeno" and end["exit"] == 4
+    assert "more than 200 firings at 0 s" in end["why"]
+    assert len(records(log)) < 2000  # not the 154 MB of the issue

@@ -63,11 +63,11 @@ def parse_fault(text: str) -> tuple[str, float]:
     except ValueError:
         raise ValueError(f"{text}: {seconds!r} is not a number of seconds; {example}") from None
     if not math.isfinite(when):
-        raise ValueError(f"{text}: {seconds} is not a finite number of seconds: the fault "
-                         "would never happen; e.g. leak@600")
+        raise ValueError(f"{text}: {seconds} is not a finite number of seconds (the fault "
+                         f"would never happen); {example}")
     if when < 0:
         raise ValueError(f"{text}: {seconds} s is before the mission starts (mission time "
-                         "counts from 0 at its start); e.g. leak@600")
+                         f"counts from 0 at its start); {example}")
     return kind, when
 
 

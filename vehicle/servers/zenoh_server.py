@@ -19,6 +19,10 @@ behind wall time x speed (the player follows the published clock, not its own gu
 Link health: when the player's token has been gone for ``player_timeout`` **wall** seconds
 (link health is about the real link, not the simulation's speed), the vehicle disables every
 active behaviour and enables Surface, its own safe action. A player that comes back re-arms it.
+A player that leaves after its mission ended is not lost: the vehicle reads the mission status
+the player publishes (``mcl/<v>/mission/status``), and once that status says the current run's
+mission ended (ok or fail), the player's token going away is its goodbye — logged, and no
+failsafe.
 
 Restarts: players announce themselves with ``mcl/<v>/alive/player/<run>``. The vehicle takes
 actions from the latest run only; an action of another run, or one whose ``seq`` is not above
@@ -92,6 +96,7 @@ class VehicleServer:
         self._player_gone_at: float | None = None  # monotonic, while the player is away
         self.failsafe = False  # the safe action has been taken (and not re-armed)
         self._run = ""  # the player run whose actions are taken (its token's last part)
+        self._ended: dict[str, str] = {}  # run -> how its mission ended (its last status)
         self._last_seq: dict[str, int] = {}  # per run: the last action seq taken
         self.stale = 0  # actions of another run, or replayed, dropped
         self.dropped = 0  # invalid actions dropped
@@ -135,10 +140,25 @@ class VehicleServer:
                 if self.failsafe:
                     log.warning("player is back: the safe action is re-armed")
                 self.failsafe = False
+            elif run == self._run and run in self._ended:  # a goodbye: no failsafe
+                self._player_present.clear()
+                log.warning("the player left after its mission ended %s: no failsafe",
+                            self._ended[run].upper())
             elif run == self._run:
                 self._player_present.clear()
                 self._player_gone_at = time.monotonic()
                 log.warning("player's token went away")
+
+    def _on_status(self, sample: zenoh.Sample) -> None:
+        """The mission status a player publishes: remember which runs' missions ended."""
+        try:
+            status = json.loads(payload_text(sample))
+            run, how = str(status["run"]), str(status["status"])
+        except (ValueError, KeyError, TypeError):
+            return  # not a status this vehicle can read: nothing to remember
+        if how in ("ok", "fail"):
+            with self._lock:
+                self._ended[run] = how
 
     def _on_capabilities(self, query: zenoh.Query) -> None:
         """What this vehicle can do: the Ictineu stack's declaration (the task library's)."""
@@ -167,6 +187,7 @@ class VehicleServer:
                     priority=zenoh.Priority.DATA_LOW)
             entities: list[Any] = [
                 session.declare_subscriber(k["action"], self._on_action),
+                session.declare_subscriber(k["status"], self._on_status),
                 session.liveliness().declare_subscriber(f"{k['alive_player']}/*",
                                                         self._on_player, history=True),
                 session.declare_queryable(k["capabilities"], self._on_capabilities),

@@ -76,6 +76,11 @@ class MavlinkVehicle(RemoteVehicle):
 
     # -- what tests, benchmarks and the summary read ----------------------------------------
     @property
+    def answered(self) -> bool:
+        """Has the vehicle answered since the link opened (a HEARTBEAT)?"""
+        return self.health.heard.is_set()
+
+    @property
     def signing(self) -> Any:
         return self.link.signing
 
@@ -115,8 +120,8 @@ class MavlinkVehicle(RemoteVehicle):
         """Wait for the vehicle, ask for telemetry, set GUIDED and arm (all bounded)."""
         deadline = time.monotonic() + self.connect_timeout
         if not self.health.heard.wait(self.connect_timeout):
-            self.link_lost(f"no HEARTBEAT from the vehicle on {self.url} within "
-                           f"{self.connect_timeout:g} s")
+            self.link_lost(f"no vehicle answered at mavlink:{self.url} within "
+                            f"{self.connect_timeout:g} s (no HEARTBEAT)")
             return
         for message_id, interval in intervals():
             self.commands.set_interval(message_id, interval)

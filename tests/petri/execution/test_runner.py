@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import pytest
 
-from petri.execution.player import Record
-from petri.execution.runner import run
+from diagnostics import Source
+from mcl.api import compile_source
+from petri.execution.player import MAX_FIRINGS_PER_INSTANT, Order, Player, Record
+from petri.execution.runner import Outcome, run
 from tests.harness import TRY, Harness, ListStack, T, ev, run_with
+from vehicle.scripted import ScriptedVehicle, parse_script
 from vehicle_adapters.inprocess import InProcess
 
 
@@ -105,3 +108,55 @@ def test_an_observer_that_raises_stops_the_run_safely_with_the_net_whole() -> No
     assert sorted(outcome.switched_off) == ["Light"]
     assert seen and max(t for t, _ in seen) < 2
     h.assert_conformant()  # the records (the other observer's) are a legal run
+
+
+# -- a loop that goes round without time passing (issue 21) ----------------------------------
+SPIN = "MISSION spin { WHILE { GoTo((-1, 0, 1, 0)) } DO { Surface() } }"
+AT_ONCE = {"behaviours": {"GoTo": {"on_enable": {"after": 0.0, "event": "reached"}},
+                          "Surface": {"on_enable": {"after": 0.0, "event": "surfaced"}}}}
+
+
+def spin_run(bound: int | None) -> tuple[Player, Outcome, list[Order]]:
+    """The spinning loop on a scripted vehicle that answers at once, with ``bound`` firings
+    at one instant (None: the player's default); returns the orders the vehicle got too."""
+    compiled = compile_source(Source("spin.mcl", SPIN), require_values=True)
+    player = Player(compiled.net) if bound is None else Player(
+        compiled.net, max_firings_per_instant=bound)
+    stack = ScriptedVehicle(parse_script(AT_ONCE))
+    got: list[Order] = []
+    player.observers.append(lambda r: got.append(Order(r.t, r.data["task"], r.data["action"],
+                                                       r.data["behaviour"], {}))
+                            if r.kind == "action" else None)
+    outcome = run(player, InProcess(stack), "spin", max_time=60.0)
+    return player, outcome, got
+
+
+@pytest.mark.parametrize("bound", [None, 50, 1000])
+def test_a_loop_that_spins_at_one_instant_is_stopped_past_the_bound(bound: int | None) -> None:
+    # Reproduces issue 21: the loop fired 375,908 times at mission time 0, and --max-time
+    # could not stop it since mission time never moved.
+    player, outcome, got = spin_run(bound)
+    limit = bound if bound is not None else MAX_FIRINGS_PER_INSTANT
+    assert outcome.status == "zeno" and outcome.time == 0.0
+    assert player.zeno is not None and f"more than {limit:,} firings at 0 s" in player.zeno
+    assert outcome.reason == player.zeno
+    # the bound, plus the few firings of the abort itself
+    assert limit <= player.fired <= limit + 20, player.fired
+    assert player.status == "fail" and not player.behaviours_on  # stopped through the abort
+    on = {o.behaviour for o in got if o.kind == "enable"} - {
+        o.behaviour for o in got if o.kind == "disable"}
+    assert not on  # whatever the loop switched on was switched off
+    assert set(outcome.switched_off) <= {"GoTo", "Surface"}
+
+
+def test_the_bound_does_not_touch_a_mission_whose_time_passes() -> None:
+    # The same loop on a vehicle that takes 1 s to answer: 60 s of mission time, about 60
+    # rounds, well under a bound of 50 firings per instant; it ends at the time limit.
+    compiled = compile_source(Source("spin.mcl", SPIN), require_values=True)
+    player = Player(compiled.net, max_firings_per_instant=50)
+    slow = {"behaviours": {b: {"on_enable": {"after": 1.0, "event": e}}
+                           for b, e in (("GoTo", "reached"), ("Surface", "surfaced"))}}
+    outcome = run(player, InProcess(ScriptedVehicle(parse_script(slow))), "spin",
+                  max_time=60.0)
+    assert outcome.status == "timeout" and player.zeno is None
+    assert player.fired > 50
