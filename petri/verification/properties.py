@@ -50,7 +50,7 @@ from petri.verification.behaviour_checks import (actions_match, behaviours_on, d
                                                  some_group)
 from petri.verification.graph import ReachabilityGraph, Rows
 from petri.verification.reachability import StateSpace, explore, shortest_path
-from petri.verification.termination import no_zeno, stop_safe, terminates
+from petri.verification.termination import Termination, no_zeno, stop_safe, terminates
 from petri.verification.timed import TimedSpace, explore_timed
 from petri.verification.verdict import Result, Verdict, nearest, step, undecided
 
@@ -62,11 +62,14 @@ __all__ = ["TIMED_MAX_CLASSES", "Result", "Verdict", "actions_match", "step", "u
 TIMED_MAX_CLASSES = 50_000
 
 
-def verify(net: Net, max_markings: int = 5_000_000, keep_graph: bool = False) -> Verdict:
+def verify(net: Net, max_markings: int = 5_000_000, keep_graph: bool = False,
+           termination: Termination = terminates) -> Verdict:
     """Explore the net's reachability graph (with the external stop) and decide every
     property of docs/SEMANTICS.md on it; a property a cut exploration cannot decide is
     undecided. With ``keep_graph`` the verdict keeps the graph (``Verdict.space``); without,
-    it is not kept (a run that verifies first does not hold it in memory while it runs)."""
+    it is not kept (a run that verifies first does not hold it in memory while it runs).
+    ``termination`` decides ``terminates`` on the explored graph (default: from every
+    reachable marking an end can be reached)."""
     start = time.perf_counter()
     ss = explore(net, max_markings=max_markings)
     check = _Exploration(net, ss, Semantics(net))
@@ -81,7 +84,7 @@ def verify(net: Net, max_markings: int = 5_000_000, keep_graph: bool = False) ->
                                 "place", "the mission can end with tokens left behind"))
     results.append(check.safety("no-deadlock", g.deadlocks(), "no reachable marking is stuck "
                                 "before the mission ends", "the mission can get stuck"))
-    results.append(terminates(g, how, cut))
+    results.append(termination(g, how, cut))
     results.append(no_zeno(g, how, cut))
     results += _behaviour_properties(check)
     results.append(_disable_while_held(check))
