@@ -1,9 +1,9 @@
 """``mclc``: compile and verify MCL missions (and verify Petri nets given as PNML).
 
-Exit status: 0 every file verified, 1 a property fails, 2 invalid input, 3 internal error,
-4 undecided (nothing fails, but some property could not be established: a limit was reached
-or the method cannot decide it). With several files: 3 if any internal error, else 2, 1, 4, 0
-in that order.
+Its exit statuses are those of every command, from the one table (``mission.exits.Exit``,
+documented in docs/EXIT.md): ``OK`` every file verified, ``FAILED`` a property fails,
+``INVALID`` invalid input, ``INTERNAL`` a bug in mclc, ``UNDECIDED`` nothing fails but some
+property could not be established. With several files, the worst (:data:`SEVERITY`).
 """
 
 from __future__ import annotations
@@ -23,16 +23,21 @@ from mcl.api import Compiled, compile_file, parse_params
 
 from mission.exits import Exit  # the exit statuses of every command: docs/EXIT.md
 
-EXIT_OK, EXIT_PROPERTY, EXIT_INVALID, EXIT_INTERNAL, EXIT_UNDECIDED = (
-    int(Exit.OK), int(Exit.FAILED), int(Exit.INVALID), int(Exit.INTERNAL), int(Exit.UNDECIDED))
-SEVERITY = [EXIT_OK, EXIT_UNDECIDED, EXIT_PROPERTY, EXIT_INVALID, EXIT_INTERNAL]  # worst last
+# With several files, mclc exits with the worst status: internal, invalid, failed, undecided,
+# ok (docs/EXIT.md).
+SEVERITY = [Exit.OK, Exit.UNDECIDED, Exit.FAILED, Exit.INVALID, Exit.INTERNAL]  # worst last
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="mclc",
         description="Compile MCL missions to Petri nets and verify them. "
-                    "Exit 0 verified, 1 a property fails, 2 invalid input.")
+                    f"Exit {int(Exit.OK)} every file verified, {int(Exit.FAILED)} a property "
+                    f"fails, {int(Exit.INVALID)} invalid input, {int(Exit.INTERNAL)} a bug in "
+                    f"mclc, {int(Exit.UNDECIDED)} undecided (some property could not be "
+                    "established); with several files, the worst ("
+                    + ", ".join(str(int(e)) for e in reversed(SEVERITY))
+                    + "). Every command's exit statuses: docs/EXIT.md.")
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="mission files (.mcl) or Petri nets (.pnml)")
     p.add_argument("--tasks", action="append", default=[], metavar="FILE",
@@ -136,7 +141,7 @@ def stdout_closed() -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """The command; a closed standard output ends it quietly with the status so far."""
-    worst = [EXIT_OK]
+    worst = [Exit.OK]
     try:
         return _main(argv, worst)
     except BrokenPipeError:
@@ -144,7 +149,7 @@ def main(argv: list[str] | None = None) -> int:
         return worst[0]
 
 
-def _main(argv: list[str] | None, so_far: list[int]) -> int:
+def _main(argv: list[str] | None, so_far: list[Exit]) -> int:
     args = _parser().parse_args(argv)
     fmt = "json" if args.json else (args.format or "text")
     from app.reports.duration import parse_limits
@@ -153,28 +158,28 @@ def _main(argv: list[str] | None, so_far: list[int]) -> int:
         args.limits = parse_limits(args.deadline, args.battery, args.reserve)
     except ValueError as exc:
         print(f"mclc: error: {exc}", file=sys.stderr)
-        return EXIT_INVALID
+        return Exit.INVALID
     outputs = [args.dot, args.dot_tasks, args.pnml, args.net_json, args.graphml]
     if len(args.files) > 1 and any(outputs):
         print("mclc: error: --dot, --dot-tasks, --pnml, --net-json and --graphml take one "
               "input file", file=sys.stderr)
-        return EXIT_INVALID
+        return Exit.INVALID
     if args.graphml is not None and (args.no_verify or args.method == "structural"):
         print(f"mclc: error: --graphml writes the graph the explicit route explores, and "
               f"{'--no-verify' if args.no_verify else 'the structural route'} explores none: "
               "use --method explicit", file=sys.stderr)
-        return EXIT_INVALID
+        return Exit.INVALID
     reports: list[dict[str, Any]] = []
-    worst = EXIT_OK
+    worst = Exit.OK
     for path in args.files:
         try:
             status, report = _one(path, args, fmt)
         except OutputError as exc:  # before MclError: its report names the output file
-            status, report = EXIT_INVALID, {"file": path, "status": "invalid",
+            status, report = Exit.INVALID, {"file": path, "status": "invalid",
                                             "message": str(exc).splitlines()[0]}
             print(exc, file=sys.stderr)
         except MclError as exc:
-            status, report = EXIT_INVALID, _invalid(path, exc.diagnostics)
+            status, report = Exit.INVALID, _invalid(path, exc.diagnostics)
             print(exc.format(), file=sys.stderr)
         except BrokenPipeError:
             raise
@@ -184,7 +189,7 @@ def _main(argv: list[str] | None, so_far: list[int]) -> int:
             print(f"{path}: internal error: {type(exc).__name__}: {exc}\n"
                   "  hint: this is a bug in mclc; rerun with --debug and report it",
                   file=sys.stderr)
-            status, report = EXIT_INTERNAL, {"file": path, "status": "internal-error",
+            status, report = Exit.INTERNAL, {"file": path, "status": "internal-error",
                                              "message": str(exc)}
         reports.append(report)
         worst = max(worst, status, key=SEVERITY.index)
@@ -211,7 +216,7 @@ def _diag_json(d: Diagnostic) -> dict[str, Any]:
             "col": span.col if span else None}
 
 
-def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, Any]]:
+def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str, Any]]:
     if args.graphml is not None:
         check_output(args.graphml, "--graphml")
     if path.lower().endswith(".pnml"):
@@ -220,7 +225,7 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, 
     compiled = compile_file(path, args.tasks or None, params)
     _write_outputs(compiled, args)
     report = _summary(compiled)
-    status = EXIT_OK
+    status = Exit.OK
     if not args.no_verify:
         from mcl.analysis.verification import verify_mission
 
@@ -230,8 +235,8 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, 
             _write_graph(path, args.graphml, compiled.net, verdict.space,
                          "--method auto took the structural route")
         report["verification"] = verdict.to_json()
-        status = (EXIT_OK if verdict.ok else EXIT_PROPERTY if verdict.failed
-                  else EXIT_UNDECIDED)
+        status = (Exit.OK if verdict.ok else Exit.FAILED if verdict.failed
+                  else Exit.UNDECIDED)
         report["status"] = ("verified" if verdict.ok else "property-fails" if verdict.failed
                             else "undecided")
     from app.reports.duration import check as check_durations
@@ -239,7 +244,7 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, 
     bounds = check_durations(compiled.checked, args.limits)
     report["duration"] = bounds.report
     if bounds.failures:
-        status = max(status, EXIT_PROPERTY, key=SEVERITY.index)
+        status = max(status, Exit.FAILED, key=SEVERITY.index)
         report["status"] = "property-fails"
     if fmt == "text":
         _print_text(compiled, report, args)
@@ -273,7 +278,7 @@ def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:
             write_output(path, option, write)
 
 
-def _pnml(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str, Any]]:
+def _pnml(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str, Any]]:
     """``mclc NET.pnml``: the state-space report of a P/T net (explicit with ``--method
     explicit``, else explicit or symbolic, whichever fits)."""
     from app.reports.pnml import pnml_text
@@ -284,7 +289,7 @@ def _pnml(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str,
         net = load_net(path)
     except PnmlError as exc:
         print(exc, file=sys.stderr)
-        return EXIT_INVALID, {"file": path, "status": "invalid", "diagnostics": [
+        return Exit.INVALID, {"file": path, "status": "invalid", "diagnostics": [
             {"severity": "error", "message": exc.message, "hint": None, "code": "pnml",
              "file": exc.path or path, "line": exc.line, "col": exc.col}]}
     method = "explicit" if args.method == "explicit" else "auto"
@@ -297,7 +302,7 @@ def _pnml(path: str, args: argparse.Namespace, fmt: str) -> tuple[int, dict[str,
         print(pnml_text(report))
         if args.graphml is not None:
             print(f"wrote reachability graph to {args.graphml}")
-    return EXIT_OK, report
+    return Exit.OK, report
 
 
 def _write_graph(source: str, target: str, net: Any, space: Any, route: str) -> None:
@@ -337,7 +342,7 @@ def _summary(compiled: Compiled) -> dict[str, Any]:
 def _print_text(compiled: Compiled, report: dict[str, Any], args: argparse.Namespace) -> None:
     for d in compiled.warnings:
         print(d.format(), file=sys.stderr)
-    name = compiled.mission.name or "(unnamed)"
+    name = compiled.name
     print(f"{compiled.source.name}: mission {name}: {report['tasks']} task calls, "
           f"{report['places']} places, {report['transitions']} transitions")
     for flag, what in ((args.dot, "full net"), (args.dot_tasks, "task view"),

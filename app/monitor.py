@@ -102,7 +102,8 @@ class View:
             done, total = int(st.get("done", 0)), int(st.get("total", 0))
             t = mission_time(st, clock)
             lines.append(f"mission {st.get('mission', '?')}  {str(st.get('status')).upper()}"
-                         f"  t = {t:.1f} s{_beside(st, t)}  ({st.get('fired', 0)} firings)")
+                         f"  t = {t:.1f} s{vehicle_time_beside(st, t)}"
+                         f"  ({st.get('fired', 0)} firings)")
             lines.append(f"  {bar(done, total, 30)} {done}/{total} tasks done")
             running = st.get("running") or []
             lines.append("  running: " + (", ".join(
@@ -140,7 +141,7 @@ class View:
         if st is None:
             return f"{vstate}; no mission yet"
         running = ", ".join(r["task"] for r in st.get("running") or []) or "—"
-        return (f"{st.get('t', 0):8.1f} s{_beside(st, float(st.get('t', 0)))}  "
+        return (f"{st.get('t', 0):8.1f} s{vehicle_time_beside(st, float(st.get('t', 0)))}  "
                 f"{st.get('mission', '?')} "
                 f"{str(st.get('status')).upper()}  {st.get('done', 0)}/{st.get('total', 0)} "
                 f"tasks done  running: {running}  ({vstate})")
@@ -155,7 +156,7 @@ def mission_time(status: dict[str, Any], clock: dict[str, Any]) -> float:
     return t
 
 
-def _beside(status: dict[str, Any], t: float) -> str:
+def vehicle_time_beside(status: dict[str, Any], t: float) -> str:
     """The vehicle's clock at mission time ``t``, when it differs from mission time."""
     try:
         offset = float(status.get("clock", status.get("t", 0))) - float(status.get("t", 0))

@@ -5,9 +5,10 @@
 
 A ``.tgz`` is a Model Checking Contest archive; its ``*/model.pnml`` is read. The report (how
 many markings and arcs, bounds, deadlocks, dead transitions, 1-safety) is
-:func:`petri.verification.pnml_report.analyse`'s. Its exit statuses (reported; a file that is not a
-P/T net: invalid input; a method that cannot decide it: no verdict), the same as ``mclc
-FILE.pnml``'s: docs/EXIT.md.
+:func:`petri.verification.pnml_report.analyse`'s. Its exit statuses, the same as ``mclc
+FILE.pnml``'s, come from ``mission.exits.Exit`` (docs/EXIT.md): reported; a file that is not a
+P/T net or an option out of range: invalid input; ``--method symbolic`` on a net that is not
+1-safe or past its time: no verdict; a bug of ours: internal error.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import traceback
 
 from app.reports.pnml import pnml_text
 from mission.exits import Exit
@@ -29,17 +31,28 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("model", help="a .pnml file or a Model Checking Contest .tgz")
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
     parser.add_argument("--method", choices=("auto", "explicit", "symbolic"), default="auto")
-    parser.add_argument("--max-markings", type=int, default=20_000_000)
+    parser.add_argument("--max-markings", type=int, default=20_000_000, metavar="N",
+                        help="stop the explicit search after N markings (1 to 2**31 - 1)")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     args = parser.parse_args(argv)
+    if not 1 <= args.max_markings < 2**31:  # invalid input, not a method that cannot decide
+        parser.error(f"argument --max-markings: must lie between 1 and 2**31 - 1, got "
+                     f"{args.max_markings}")
     try:
         net = load_net(args.model)
         report = analyse(net, method=args.method, max_markings=args.max_markings)
     except PnmlError as exc:
         print(exc, file=sys.stderr)
         return Exit.INVALID
-    except (ValueError, symbolic.NotOneSafe, symbolic.SymbolicLimit) as exc:  # --method symbolic
+    except (symbolic.NotOneSafe, symbolic.SymbolicLimit) as exc:  # --method symbolic
         print(f"{args.model}: error: {exc}", file=sys.stderr)
         return Exit.UNDECIDED
+    except Exception as exc:  # a bug of ours: say so plainly, never a bare traceback
+        if args.debug:
+            traceback.print_exc()
+        print(f"{args.model}: internal error: {type(exc).__name__}: {exc}\n"
+              "  hint: this is a bug; rerun with --debug and report it", file=sys.stderr)
+        return Exit.INTERNAL
     print(json.dumps(report, indent=2) if args.json else pnml_text(report))
     return Exit.OK
 

@@ -60,11 +60,7 @@ class NoWallPerception(IctineuStack):
 
     def __init__(self, config: StackConfig | None = None):
         super().__init__(config)
-        s = self.sensors
-        i = s.all.index(s.sonar)
-        # the other sensors keep their own random streams (and so their readings)
-        del s.all[i]
-        del s._rngs[i]
+        self.sensors.remove(self.sensors.sonar)  # the others keep their random streams
 
     def perception(self) -> bh.Perception:
         p = super().perception()

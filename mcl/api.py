@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 from dataclasses import dataclass
 
 from diagnostics import Diagnostic, MclError, Source, read_source
@@ -17,6 +18,12 @@ class Compiled:
     checked: checker.Checked
     net: Net
     source: Source
+
+    @property
+    def name(self) -> str:
+        """The mission's name in every command: its MISSION's name if it has one, else the
+        stem of its file (``missions/dam_inspection.mcl`` -> ``dam_inspection``)."""
+        return self.mission.name or Path(self.source.name).stem
 
     @property
     def warnings(self) -> list[Diagnostic]:

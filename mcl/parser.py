@@ -126,13 +126,18 @@ def parse_value(text: str, origin: str = "<command line>", line: int = 1,
                 column: int = 1) -> ast.Value:
     """Parse one parameter value as written on the command line or in a parameter file;
     ``line`` and ``column`` say where it starts in ``origin`` (for the spans of messages)."""
-    source = Source(origin, text)
-    padded = "\n" * (line - 1) + " " * (column - 1) + text  # blanks the grammar ignores
+    # Blanks the grammar ignores put the value where it was written, so every position the
+    # parser reports (and every span of the AST) is already a place in ``origin``.
+    padded = "\n" * (line - 1) + " " * (column - 1) + text
+    source = Source(origin, padded)
     try:
         tree = _lark().parse(padded, start="value")
     except UnexpectedInput as exc:
-        col = getattr(exc, "column", 1)
-        raise error(source, f"not a value: {text!r}", source.span(1, max(col - column + 1, 1)),
+        token = getattr(exc, "token", None)
+        ended = isinstance(exc, UnexpectedEOF) or getattr(token, "type", "") == "$END"
+        at = (source.span(line, column + len(text.rstrip())) if ended or exc.line < 1
+              else source.span(exc.line, max(exc.column, 1)))  # at the end: after the value
+        raise error(source, f"not a value: {text!r}", at,
                     "values are numbers with an optional unit (1.5 m), lists [a, b], "
                     "points (x, y, z, yaw) or names", code="bad-value") from None
     check_depth(source, tree)
@@ -165,15 +170,7 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
         return error(source, f"keywords are upper case: write {token.upper()}, not {token}",
                      _tok_span(source, token), f"replace '{token}' with '{token.upper()}'",
                      code="lower-case-keyword")
-    code = None
-    if exc.state is not None:
-        try:
-            code = exc.match_examples(lambda text: _lark().parse(text, start="start"),
-                                      {k: v[2] for k, v in KNOWN_MISTAKES.items()},
-                                      use_accepts=True)
-        except Exception:  # match_examples may itself fail on odd states: fall back
-            code = None
-    code = _after_item(exc, token, code)
+    code = _after_item(exc, token, known_mistake(exc))
     if code is not None:
         message, hint, _ = KNOWN_MISTAKES[code]
         span = source.span(line, col)
@@ -197,6 +194,34 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
     expected = sorted(_pretty_terminal(t) for t in getattr(exc, "expected", ()) or ())
     return error(source, f"unexpected {_pretty_token(token)}", _tok_span(source, token),
                  f"expected {_one_of(expected)}" if expected else "", code="syntax")
+
+
+def known_mistake(exc: UnexpectedInput) -> str | None:
+    """The code of the :data:`KNOWN_MISTAKES` entry whose examples fail as ``exc`` does: in the
+    same parser state, expecting the same tokens, preferably at a token of the same type (a
+    file that ends where a '}' could come ends inside a block, whatever else could come).
+
+    Unlike lark's ``match_examples``, which also asks for the same depth of the parser's stack,
+    this does not depend on what comes before the mistake (PARAM lines, enclosing blocks)."""
+    state = exc.state
+    if state is None or not isinstance(exc, (UnexpectedToken, UnexpectedEOF)):
+        return None
+    accepts = getattr(exc, "accepts", None)
+    candidate = None
+    for code, (_, _, examples) in KNOWN_MISTAKES.items():
+        for example in examples:
+            try:
+                _lark().parse(example, start="start")
+            except (UnexpectedToken, UnexpectedEOF) as seen:
+                if (seen.state is None or seen.state.position != state.position
+                        or getattr(seen, "accepts", None) != accepts):
+                    continue
+                if seen.token.type == exc.token.type:
+                    return code
+                candidate = candidate or code
+    if exc.token.type == "$END" and "RBRACE" in (accepts or ()):
+        return "unclosed-block"  # whatever else could have come, the file ended inside a block
+    return candidate
 
 
 # After a whole item of a block (a ';' or a '}' may come next), the parser is in the same state

@@ -134,7 +134,7 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
         if not verdict.ok:
             raise NotVerified([r.name for r in verdict.results
                                if not r.holds and r.severity == "error"])
-    name = compiled.mission.name or Path(compiled.source.name).stem
+    name = compiled.name
     about = {"mission": name, "file": compiled.source.name, "net": net_digest(compiled.net),
              **(header or {}), "max_time": limit[0], "time": TIME_NOTE}
     play = _Play(compiled, chosen, name, Player(compiled.net),

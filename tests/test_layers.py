@@ -1,6 +1,8 @@
 """The layers of the tree (issue 13): the import graph of the first-party packages, read with
 ``ast``, has no cycle between modules and no import that points up the order below; and only the
-application layer parses command lines (``argparse``).
+application layer parses command lines (``argparse``). Issue 20 adds: no module uses another's
+private name, and no import inside a function hides a cycle (tests/private_names.py and
+tests/import_graph.py are the readers).
 
 Every import counts: at module level, inside functions, under ``if TYPE_CHECKING:``, relative
 ones (``from .x import y``, ``from .. import m``), ``from pkg import module`` (an edge to the
@@ -9,12 +11,21 @@ module, not to the package), and ``importlib.import_module("literal")``.
 
 from __future__ import annotations
 
-import ast
 import tomllib
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
+from tests.import_graph import (
+    Edge,
+    cycles,
+    deferred_imports,
+    external_imports,
+    import_edges,
+    module_files,
+    running_edges,
+    upward,
+)
+from tests.private_names import PrivateUse, Reader
 from tests.support import REPO
 
 # The one statement of the layer order, top down. A package may import any package BELOW it;
@@ -33,205 +44,27 @@ LAYERS: tuple[str, ...] = (
 )
 # Modules that may parse a command line: the application layer only.
 COMMAND_LINE_PACKAGES = frozenset({"app"})
+# Who else must keep off the packages' private names: the tests, the benchmarks and the examples
+# (which show the public API). A test file alone may reach into the module it mirrors.
+USERS = ("tests", "bench", "examples")
 
 
-@dataclass(frozen=True, order=True)
-class Edge:
-    source: str  # the importing module, e.g. "petri.execution.runner"
-    target: str  # the imported first-party module, e.g. "diagnostics"
-    file: str  # the importing file, relative to the root
-    line: int
-
-    def __str__(self) -> str:
-        return f"{self.source} -> {self.target} ({self.file}:{self.line})"
-
-
-def module_files(root: Path, packages: Iterable[str]) -> dict[str, Path]:
-    """Every module of the packages: dotted name -> file (a package is its __init__.py)."""
-    modules: dict[str, Path] = {}
-    for package in packages:
-        base = root / package
-        if not base.is_dir():
-            continue
-        for path in sorted(base.rglob("*.py")):
-            if "__pycache__" in path.parts:
-                continue
-            parts = list(path.relative_to(root).with_suffix("").parts)
-            if parts[-1] == "__init__":
-                parts.pop()
-            modules[".".join(parts)] = path
-    return modules
+def mirrors(test: str, module: str) -> bool:
+    """Whether ``test`` is the test file of ``module``: tests.<path>.test_<name> tests
+    <path>.<name> (tests/petri/execution/test_player.py, petri/execution/player.py), or the
+    package <path> itself when <name> is its name (tests/diagnostics/test_diagnostics.py)."""
+    parts = test.split(".")
+    if parts[0] != "tests" or not parts[-1].startswith("test_"):
+        return False
+    path, name = parts[1:-1], parts[-1].removeprefix("test_")
+    return module in (".".join([*path, name]), ".".join(path) if path[-1:] == [name] else None)
 
 
-def _is_package(module: str, modules: dict[str, Path]) -> bool:
-    return modules[module].name == "__init__.py"
-
-
-def _resolve(name: str, modules: dict[str, Path]) -> str | None:
-    """The first-party module an absolute dotted name lands in: the longest prefix that is one."""
-    parts = name.split(".")
-    while parts:
-        candidate = ".".join(parts)
-        if candidate in modules:
-            return candidate
-        parts.pop()
-    return None
-
-
-def _base(module: str, level: int, modules: dict[str, Path]) -> str:
-    """The package a relative import of ``level`` dots in ``module`` starts from."""
-    package = module if _is_package(module, modules) else module.rpartition(".")[0]
-    for _ in range(level - 1):
-        package = package.rpartition(".")[0]
-    return package
-
-
-def _targets(node: ast.AST, module: str, modules: dict[str, Path]) -> list[str]:
-    """The first-party modules one AST node imports (empty for anything else)."""
-    names: list[str] = []
-    if isinstance(node, ast.Import):
-        names = [alias.name for alias in node.names]
-    elif isinstance(node, ast.ImportFrom):
-        if node.level:
-            base = _base(module, node.level, modules)
-            origin = ".".join(p for p in (base, node.module or "") if p)
-        else:
-            origin = node.module or ""
-        for alias in node.names:
-            # from pkg import module -> that module; from module import name -> the module
-            sub = f"{origin}.{alias.name}" if origin else alias.name
-            names.append(sub if sub in modules else origin)
-    elif isinstance(node, ast.Call):
-        func = node.func
-        called = (func.attr if isinstance(func, ast.Attribute)
-                  else func.id if isinstance(func, ast.Name) else "")
-        if called in ("import_module", "__import__") and node.args and \
-                isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str):
-            names = [node.args[0].value]
-    out = []
-    for name in names:
-        target = _resolve(name, modules) if name else None
-        if target is not None and target != module:
-            out.append(target)
-    return out
-
-
-def import_edges(root: Path, packages: Sequence[str]) -> list[Edge]:
-    """Every import between first-party modules under ``root``."""
-    modules = module_files(root, packages)
-    edges = set()
-    for module, path in modules.items():
-        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
-        rel = path.relative_to(root).as_posix()
-        for node in ast.walk(tree):
-            for target in _targets(node, module, modules):
-                edges.add(Edge(module, target, rel, getattr(node, "lineno", 0)))
-    return sorted(edges)
-
-
-def external_imports(root: Path, packages: Sequence[str], name: str) -> list[Edge]:
-    """Where a first-party module imports the outside module ``name`` (e.g. argparse)."""
-    found = []
-    for module, path in module_files(root, packages).items():
-        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
-        rel = path.relative_to(root).as_posix()
-        for node in ast.walk(tree):
-            imported: list[str] = []
-            if isinstance(node, ast.Import):
-                imported = [alias.name for alias in node.names]
-            elif isinstance(node, ast.ImportFrom) and not node.level and node.module:
-                imported = [node.module]
-            if any(n == name or n.startswith(name + ".") for n in imported):
-                found.append(Edge(module, name, rel, node.lineno))  # type: ignore[attr-defined]
-    return sorted(found)
-
-
-def cycles(edges: Iterable[Edge]) -> list[list[Edge]]:
-    """One cycle (as its edges) for each strongly connected group of modules (Tarjan)."""
-    graph: dict[str, dict[str, Edge]] = {}
-    for e in edges:
-        graph.setdefault(e.source, {}).setdefault(e.target, e)
-        graph.setdefault(e.target, {})
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    stack: list[str] = []
-    on_stack: set[str] = set()
-    groups: list[list[str]] = []
-    counter = 0
-    for start in sorted(graph):  # iterative Tarjan: no recursion limit on a deep graph
-        if start in index:
-            continue
-        work = [(start, iter(sorted(graph[start])))]
-        index[start] = low[start] = counter
-        counter += 1
-        stack.append(start)
-        on_stack.add(start)
-        while work:
-            node, successors = work[-1]
-            advanced = False
-            for nxt in successors:
-                if nxt not in index:
-                    index[nxt] = low[nxt] = counter
-                    counter += 1
-                    stack.append(nxt)
-                    on_stack.add(nxt)
-                    work.append((nxt, iter(sorted(graph[nxt]))))
-                    advanced = True
-                    break
-                if nxt in on_stack:
-                    low[node] = min(low[node], index[nxt])
-            if advanced:
-                continue
-            work.pop()
-            if work:
-                low[work[-1][0]] = min(low[work[-1][0]], low[node])
-            if low[node] == index[node]:
-                group = []
-                while True:
-                    member = stack.pop()
-                    on_stack.discard(member)
-                    group.append(member)
-                    if member == node:
-                        break
-                if len(group) > 1:
-                    groups.append(sorted(group))
-    found = []
-    for group in sorted(groups):
-        members = set(group)
-        path = _path_back(graph, members, group[0])
-        found.append([graph[a][b] for a, b in zip(path, path[1:])])
-    return found
-
-
-def _path_back(graph: dict[str, dict[str, Edge]], members: set[str], start: str) -> list[str]:
-    """A shortest path start -> ... -> start inside one strongly connected group (BFS)."""
-    previous: dict[str, str] = {}
-    frontier = [start]
-    while frontier:
-        following = []
-        for node in frontier:
-            for nxt in sorted(graph[node]):
-                if nxt == start:
-                    path = [node]
-                    while path[-1] != start:
-                        path.append(previous[path[-1]])
-                    return [*reversed(path), start]
-                if nxt in members and nxt not in previous:
-                    previous[nxt] = node
-                    following.append(nxt)
-        frontier = following
-    raise AssertionError(f"{start} is in a cycle but no path leads back to it")
-
-
-def upward(edges: Iterable[Edge], layers: Sequence[str]) -> list[Edge]:
-    """Imports between packages that do not point strictly down ``layers`` (top first)."""
-    level = {package: i for i, package in enumerate(layers)}
-    bad = []
-    for e in edges:
-        a, b = e.source.split(".")[0], e.target.split(".")[0]
-        if a != b and level[b] <= level[a]:
-            bad.append(e)
-    return bad
+def private_uses(root: Path, packages: Sequence[str], users: Sequence[str]) -> list[PrivateUse]:
+    """The packages' modules, and the ``users``' ones, using a private name of another
+    package module (a test of the module it mirrors excepted)."""
+    owners = module_files(root, packages)
+    return Reader(owners, root, mirrors).uses({**owners, **module_files(root, users)})
 
 
 def _lines(edges: Iterable[Edge]) -> str:
@@ -278,6 +111,36 @@ def test_the_reader_sees_the_known_edges_of_the_tree() -> None:
     assert ("petri.execution.runlog", "petri.net") in pairs  # from .net import Net
     assert len({e.source.split(".")[0] for e in edges}) >= len(LAYERS) - 1
     assert all(e.line > 0 and (REPO / e.file).is_file() for e in edges)
+
+
+def test_no_private_name_is_used_across_modules() -> None:
+    """A private name is one its module may change without telling anyone: any other module
+    that needs it asks for a public name (a test file may still use the module it mirrors)."""
+    bad = private_uses(REPO, LAYERS, USERS)
+    assert not bad, "private names used outside their module:\n" + "\n".join(f"  {u}" for u in bad)
+
+
+def test_no_import_inside_a_function_hides_a_cycle() -> None:
+    """An import inside a function is for start-up speed only: moved to module level, with the
+    package __init__ modules Python runs before it, it must close no cycle."""
+    found = cycles(running_edges(REPO, LAYERS))
+    assert not found, ("imports inside functions that hide a cycle (moved to module level, "
+                       "they would not load):\n" + _cycle_text(found))
+
+
+def test_the_readers_see_the_known_function_imports_and_inheritance_of_the_tree() -> None:
+    """Readers that resolve nothing would pass the two tests above: they must see real ones."""
+    deferred = {(e.source, e.target) for e in deferred_imports(REPO, LAYERS)}
+    running = {(e.source, e.target) for e in running_edges(REPO, LAYERS)}
+    assert ("mosaic.hook", "mosaic.build") in deferred  # lazy: SciPy only for a mosaic
+    assert ("app.run", "mosaic.hook") in deferred and ("app.run", "mosaic") in running
+    assert deferred <= running
+    reader = Reader(module_files(REPO, LAYERS), REPO)
+    zenoh = reader.owner("vehicle_adapters.zenoh_link")
+    assert zenoh is not None
+    inherited = reader.inherited_members(zenoh.name, zenoh, zenoh.classes["ZenohVehicle"])
+    assert inherited["_max_seq"] == "vehicle_adapters.link:RemoteVehicle"  # its base's own
+    assert "lock" not in inherited and "_alive" not in inherited  # public; ZenohVehicle's own
 
 
 # -- the checker itself, on a tree made to fail -----------------------------------------------------
@@ -337,3 +200,83 @@ def test_the_checker_passes_a_clean_tree_and_follows_the_order(tmp_path: Path) -
     # the same tree with low placed above mid: mid.m -> low.base now points up
     swapped = upward(edges, ("top", "low", "mid"))
     assert [str(e) for e in swapped] == ["mid.m -> low.base (mid/m.py:1)"]
+
+
+def test_the_private_name_checker_finds_each_kind_of_use(tmp_path: Path) -> None:
+    _tree(tmp_path, {
+        "low/__init__.py": "from low.base import Base as Base\n_PKG = 1\n",
+        "low/base.py": ("_SECRET = 1\n\n"
+                        "def _helper():\n    return _SECRET\n\n"  # its own: fine
+                        "class Base:\n    _shared = 0\n\n"
+                        "    def __init__(self):\n        self._lock = None\n\n"
+                        "    def _hook(self):\n        return self._lock\n\n"
+                        "class Player:\n    def _emit(self):\n        pass\n"),
+        "mid/__init__.py": "",
+        "mid/a.py": ("import os\n"
+                     "import low.base\n"
+                     "from low import base as b\n"
+                     "from low.base import _helper, Base, Player as _Player\n"  # 4: _helper
+                     "from low import Base as Again\n"  # a re-export
+                     "x = low.base._SECRET + b._SECRET + Base._shared\n"  # 6: module, class
+                     "y = low.base.__name__\n"  # a dunder: fine
+                     "class Sub(Base):\n"
+                     "    def _hook(self):\n"  # 9: overrides the base's private hook
+                     "        return self._lock\n"  # 10: the base's private attribute
+                     "    def _mine(self):\n"
+                     "        self._own = 1\n"  # its own: fine
+                     "        return self._own\n"
+                     "class Deeper(Again):\n"
+                     "    _shared = 1\n"  # 15: through the re-export
+                     "def run(player: _Player) -> None:\n"  # a private alias of its own: fine
+                     "    player._emit()\n"  # 17: by name, defined in low.base only
+                     "    os._exit(0)\n"  # the standard library's: fine
+                     "    player._replace()\n"  # no first-party module defines it: fine
+                     "    _ = _helper()\n"),
+        "mid/sub/__init__.py": "",
+        "mid/sub/c.py": "from .. import a\nfrom ..a import Sub, _Player\nSub()._mine()\na._own\n",
+        "tests/mid/test_a.py": "from mid.a import _Player\n",  # its module: fine
+        "tests/mid/sub/test_c.py": "from mid.a import _Player\n",  # not its module
+        "tests/low/test_low.py": "import low\nimport low.base\nlow._PKG, low.base._SECRET\n",
+    })
+    found = [str(u) for u in private_uses(tmp_path, BAD_LAYERS, ["tests"])]
+    assert found == [
+        "mid/a.py:4: mid.a uses _helper of low.base (imported)",
+        "mid/a.py:6: mid.a uses _SECRET of low.base (module attribute)",
+        "mid/a.py:6: mid.a uses _shared of low.base (class attribute)",
+        "mid/a.py:9: mid.a uses _hook of low.base:Base (inherited)",
+        "mid/a.py:10: mid.a uses _lock of low.base:Base (inherited)",
+        "mid/a.py:15: mid.a uses _shared of low.base:Base (inherited)",
+        "mid/a.py:17: mid.a uses _emit of low.base (attribute)",
+        "mid/sub/c.py:2: mid.sub.c uses _Player of mid.a (imported)",
+        "mid/sub/c.py:3: mid.sub.c uses _mine of mid.a (attribute)",
+        "mid/sub/c.py:4: mid.sub.c uses _own of mid.a (module attribute)",
+        "tests/low/test_low.py:3: tests.low.test_low uses _SECRET of low.base (module attribute)",
+        "tests/mid/sub/test_c.py:1: tests.mid.sub.test_c uses _Player of mid.a (imported)"]
+    assert mirrors("tests.mid.test_a", "mid.a") and mirrors("tests.low.test_low", "low")
+    assert not mirrors("tests.mid.test_a", "mid") and not mirrors("bench.test_a", "a")
+
+
+def test_the_running_graph_shows_a_cycle_an_import_inside_a_function_hides(
+        tmp_path: Path) -> None:
+    _tree(tmp_path, {
+        "pkg/__init__.py": "from pkg.a import A\nfrom other.b import f\n",
+        "pkg/a.py": ("from typing import TYPE_CHECKING\n"
+                     "if TYPE_CHECKING:\n    from other.c import g\n"  # never runs
+                     "else:\n    import other.c\n"
+                     "A = 1\n"),
+        "pkg/d.py": "def h():\n    from pkg.a import A  # start-up speed\n    return A\n",
+        "other/__init__.py": "",
+        # moved to module level, this runs pkg/__init__.py, which imports other.b half-loaded
+        "other/b.py": "def f():\n    from pkg.a import A\n    return A\n",
+        "other/c.py": "",
+    })
+    packages = ("pkg", "other")
+    assert cycles(import_edges(tmp_path, packages)) == []  # the plain graph sees none
+    assert [str(e) for e in deferred_imports(tmp_path, packages)] == [
+        "other.b -> pkg.a (other/b.py:2)", "pkg.d -> pkg.a (pkg/d.py:2)"]
+    running = running_edges(tmp_path, packages)
+    assert {(e.source, e.target) for e in running} == {
+        ("pkg", "pkg.a"), ("pkg", "other.b"), ("pkg", "other"), ("pkg.a", "other.c"),
+        ("pkg.a", "other"), ("pkg.d", "pkg.a"), ("other.b", "pkg.a"), ("other.b", "pkg")}
+    assert [[str(e) for e in c] for c in cycles(running)] == [
+        ["other.b -> pkg (other/b.py:2)", "pkg -> other.b (pkg/__init__.py:2)"]]

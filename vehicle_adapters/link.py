@@ -10,6 +10,10 @@ the player's timers and time limits still end the run. ``now()`` never goes back
 The inbox. Adapters put events in from their own threads (:meth:`deliver`); ``receive(until)``
 takes them out, waiting for the first at most until the clock reads ``until`` and never longer
 than ``max_poll`` wall seconds.
+
+A subclass feeds both through public names, since it lives in another module: ``lock``,
+``inbox``, ``base_t``, ``speed``, ``clock_running``, the ``*_locked`` methods (called with
+``lock`` held) and ``link_lost(reason)``.
 """
 
 from __future__ import annotations
@@ -34,64 +38,65 @@ class RemoteVehicle:
     def __init__(self, *, max_poll: float = MAX_POLL, max_extrapolation: float = 0.25):
         self.max_poll = max_poll
         self.max_extrapolation = max_extrapolation
-        self._lock = threading.Lock()  # the clock, the sequence numbers, and a subclass's state
-        self._events: queue.Queue[EventMessage] = queue.Queue()
+        # What a subclass shares (public, not _private: it lives in another module):
+        self.lock = threading.Lock()  # the clock, the sequence numbers, and a subclass's state
+        self.inbox: queue.Queue[EventMessage] = queue.Queue()  # the events receive() returns
+        self.base_t = 0.0  # the last vehicle time heard (at monotonic _base_wall)
+        self.speed = 1.0  # vehicle s per wall s
+        self.clock_running = False  # the vehicle's clock runs (heard, and not paused)
         self._max_seq = -1  # the highest event seq delivered
-        self._base_t = 0.0
         self._base_wall = time.monotonic()
-        self._speed = 1.0
-        self._running = False  # the vehicle's clock runs (it has been heard, and not paused)
         self._last_now = 0.0
         self._lost = False
         self.lost_at: float | None = None  # monotonic time Link.lost was raised
         self.lost_reason = ""
 
-    # -- the clock (call with self._lock held) --------------------------------------------------
-    def _vehicle_time_locked(self) -> float:
-        if not self._running:
-            return self._base_t
+    # -- the clock (call with self.lock held) ---------------------------------------------------
+    def vehicle_time_locked(self) -> float:
+        """The vehicle's clock now, as followed (lock held)."""
+        if not self.clock_running:
+            return self.base_t
         elapsed = time.monotonic() - self._base_wall
         if not self._lost:
             elapsed = min(elapsed, self.max_extrapolation)
-        return self._base_t + elapsed * self._speed
+        return self.base_t + elapsed * self.speed
 
-    def _clock_locked(self, t: float, speed: float | None = None, running: bool = True) -> None:
-        """The vehicle said its clock reads ``t`` (now), running at ``speed`` x wall."""
-        self._base_t, self._base_wall, self._running = t, time.monotonic(), running
+    def set_clock_locked(self, t: float, speed: float | None = None,
+                         running: bool = True) -> None:
+        """The vehicle said its clock reads ``t`` (now), running at ``speed`` x wall (lock
+        held)."""
+        self.base_t, self._base_wall, self.clock_running = t, time.monotonic(), running
         if speed is not None:
-            self._speed = speed
+            self.speed = speed
 
     def now(self) -> float:
-        with self._lock:
-            self._last_now = max(self._last_now, self._vehicle_time_locked())
+        with self.lock:
+            self._last_now = max(self._last_now, self.vehicle_time_locked())
             return self._last_now
 
-    @property
-    def speed(self) -> float:
-        return self._speed
-
     # -- events -----------------------------------------------------------------------------------
-    def _next_seq_locked(self) -> int:
+    def next_seq_locked(self) -> int:
+        """The sequence number of an event the adapter makes itself (lock held)."""
         self._max_seq += 1
         return self._max_seq
 
     def deliver(self, event: EventMessage) -> None:
         """Put an event in the inbox (any thread)."""
-        with self._lock:
+        with self.lock:
             self._max_seq = max(self._max_seq, event.seq)
-        self._events.put(event)
+        self.inbox.put(event)
 
-    def _link_lost(self, reason: str) -> None:
+    def link_lost(self, reason: str) -> None:
         """Raise ``Link.lost`` once; from then on the clock runs on wall time."""
-        with self._lock:
+        with self.lock:
             if self._lost:
                 return
-            t = self._vehicle_time_locked()
+            t = self.vehicle_time_locked()
             self._lost, self.lost_at, self.lost_reason = True, time.monotonic(), reason
-            self._clock_locked(t)
-            event = EventMessage(self._next_seq_locked(), t, "Link", "lost", {"reason": reason})
+            self.set_clock_locked(t)
+            event = EventMessage(self.next_seq_locked(), t, "Link", "lost", {"reason": reason})
         log.warning("link to the vehicle lost: %s", reason)
-        self._events.put(event)
+        self.inbox.put(event)
 
     @property
     def lost(self) -> bool:
@@ -105,21 +110,21 @@ class RemoteVehicle:
         wall_end = time.monotonic() + self.max_poll
         while True:
             try:
-                events.append(self._events.get_nowait())
+                events.append(self.inbox.get_nowait())
                 continue
             except queue.Empty:
                 pass
             if events:
                 return events
             remaining = wall_end - time.monotonic()
-            with self._lock:
-                speed = self._speed if self._running else 0.0
+            with self.lock:
+                speed = self.speed if self.clock_running else 0.0
             ahead = until - self.now()
             if remaining <= 0 or ahead <= 0:
                 return events
             wait = remaining if speed <= 0 else min(remaining, ahead / speed)
             try:
-                events.append(self._events.get(timeout=max(wait, 1e-4)))
+                events.append(self.inbox.get(timeout=max(wait, 1e-4)))
             except queue.Empty:
                 return events
 

@@ -118,15 +118,15 @@ class ZenohVehicle(RemoteVehicle):
         (else ``Link.lost``), and the action publisher matched so that no action is lost."""
         k, deadline = self.keys, time.monotonic() + self.connect_timeout
         if not self._alive.wait(self.connect_timeout):
-            self._link_lost(f"no vehicle token on {k['alive_vehicle']} within "
-                            f"{self.connect_timeout:g} s (endpoint {self.endpoint})")
+            self.link_lost(f"no vehicle token on {k['alive_vehicle']} within "
+                           f"{self.connect_timeout:g} s (endpoint {self.endpoint})")
             return
         self._clocked.wait(max(0.0, deadline - time.monotonic()))
         if not self._taken.wait(max(0.0, deadline - time.monotonic())):
-            self._link_lost(f"the vehicle does not take this run's actions within "
-                            f"{self.connect_timeout:g} s: are we its player? (with access "
-                            "control: --user / --tls-cert must be the vehicle's --player-user "
-                            "/ --player-cn)")
+            self.link_lost(f"the vehicle does not take this run's actions within "
+                           f"{self.connect_timeout:g} s: are we its player? (with access "
+                           "control: --user / --tls-cert must be the vehicle's --player-user "
+                           "/ --player-cn)")
             return
         while not self._publisher.matching_status and time.monotonic() < deadline:
             time.sleep(0.002)
@@ -147,14 +147,14 @@ class ZenohVehicle(RemoteVehicle):
         try:
             event = EventMessage.from_json(payload_text(sample))
         except InvalidMessage as exc:
-            with self._lock:
+            with self.lock:
                 self.dropped += 1
             log.warning("player dropped an invalid event on %s: %s", sample.key_expr, exc)
             return
-        with self._lock:
+        with self.lock:
             self.received += 1
-            if event.t > self._vehicle_time_locked():  # the event is news of the clock too
-                self._clock_locked(event.t, running=self._running)
+            if event.t > self.vehicle_time_locked():  # the event is news of the clock too
+                self.set_clock_locked(event.t, running=self.clock_running)
         self.deliver(event)
 
     def _on_clock(self, sample: zenoh.Sample) -> None:
@@ -166,9 +166,9 @@ class ZenohVehicle(RemoteVehicle):
         except (ValueError, KeyError, TypeError) as exc:
             log.warning("player ignored an invalid clock message: %s", exc)
             return
-        with self._lock:
-            if not self._lost:
-                self._clock_locked(t, speed, running)
+        with self.lock:
+            if not self.lost:
+                self.set_clock_locked(t, speed, running)
         self._clocked.set()
 
     def _on_behaviours(self, sample: zenoh.Sample) -> None:
@@ -180,13 +180,13 @@ class ZenohVehicle(RemoteVehicle):
         except (ValueError, AttributeError):
             return
         if run == self.run and isinstance(d.get("active"), list):
-            with self._lock:
+            with self.lock:
                 self._active = [str(b) for b in d["active"]]
                 self._active_t = float(d.get("t", 0.0))
         if run == self.run:
             self._taken.set()
         elif self._taken.is_set() and run:
-            self._link_lost(f"another player (run {run}) took the vehicle")
+            self.link_lost(f"another player (run {run}) took the vehicle")
 
     def _on_status_query(self, query: zenoh.Query) -> None:
         status = self._status
@@ -208,24 +208,24 @@ class ZenohVehicle(RemoteVehicle):
             self._alive.set()
         else:
             self._alive.clear()
-            self._link_lost(f"the vehicle's token {sample.key_expr} went away")
+            self.link_lost(f"the vehicle's token {sample.key_expr} went away")
 
     # -- the Vehicle protocol ---------------------------------------------------------------------
     def send(self, action: ActionMessage) -> None:
         if self.session is None:
             raise RuntimeError("ZenohVehicle used outside its 'with' block")
-        if self._lost:
+        if self.lost:
             log.warning("link lost: action %s %s not sent", action.kind, action.behaviour)
             return
         self._publisher.put(dataclasses.replace(action, run=self.run).to_json())
         self.sent += 1
-        with self._lock:
-            self._sent_t = self._vehicle_time_locked()
+        with self.lock:
+            self._sent_t = self.vehicle_time_locked()
 
     def declaration(self) -> Declaration | None:
         """What the vehicle says it can do (asked once, at most ``connect_timeout`` s; None
         before connecting, after ``Link.lost``, or if it does not say)."""
-        if self.session is None or self._lost:
+        if self.session is None or self.lost:
             return None
         if not self._asked:
             self._asked = True
@@ -246,11 +246,11 @@ class ZenohVehicle(RemoteVehicle):
     def confirm_off(self, names: list[str], timeout: float) -> str:
         """Wait (at most ``timeout`` wall s) for the vehicle's telemetry, sent after the last
         action, to show no behaviour on."""
-        if self._lost:
+        if self.lost:
             return f"not confirmed: the link is lost ({self.lost_reason})"
         end = time.monotonic() + timeout
         while True:
-            with self._lock:
+            with self.lock:
                 active, fresh = self._active, self._active_t >= self._sent_t
             if fresh and active == []:
                 return "confirmed by the vehicle's telemetry: no behaviour on"

@@ -30,62 +30,24 @@ What leaves the player:
   observer that raises (a run log on a full disk) stops neither the other observers nor the
   player: the call under way (``start``, ``settle``, ``handle_event``, ``abort``, ...) runs to
   its end, and then the first such exception propagates to the caller, whose safe exit can
-  abort the run from a player that is whole.
+  abort the run from a player that is whole. How records reach the observers, and these two
+  promises, are petri/execution/reporting.py's.
 """
 
 from __future__ import annotations
 
-import functools
 import heapq
 from collections import deque
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, Concatenate, NamedTuple, ParamSpec, TypeVar
+from typing import Any, NamedTuple
 
+from petri.execution.reporting import Observer, Record, Reporting, whole
 from petri.net import Action, Net, resolve
 from petri.semantics import LINK_LOST, MISSION_ABORT, Semantics, block_of
 
 MAX_IMMEDIATE_FIRINGS = 1_000_000  # per step: a bound on any loop, never reached by a sound net
 
 __all__ = ["LINK_LOST", "MISSION_ABORT", "Order", "Player", "Record"]
-
-
-P = ParamSpec("P")
-R = TypeVar("R")
-
-
-def whole(method: Callable[Concatenate[Player, P], R]) -> Callable[Concatenate[Player, P], R]:
-    """A call of the player that runs to its end whatever its observers do: the first
-    exception an observer raised during it propagates once it is over (module doc)."""
-    def call(player: Player, /, *args: P.args, **kwargs: P.kwargs) -> R:
-        player._calls += 1
-        try:
-            result = method(player, *args, **kwargs)
-        except BaseException:
-            player._calls -= 1
-            if player._calls == 0:
-                player._failure = None  # the call's own error is the one to report
-            raise
-        player._calls -= 1
-        if player._calls == 0 and player._failure is not None:
-            failure, player._failure = player._failure, None
-            raise failure
-        return result
-    functools.update_wrapper(call, method)  # its name and docstring
-    return call
-
-
-@dataclass(frozen=True)
-class Record:
-    """One thing that happened: kind is "fire", "action", "event", "ignored", "status",
-    "note" or "cleanup" (the behaviours the player itself switches off because the net left
-    them on, before the disables it sends for them). ``data`` holds the details
-    (JSON-ready)."""
-
-    t: float
-    kind: str
-    data: dict[str, Any]
 
 
 class Order(NamedTuple):
@@ -102,9 +64,13 @@ class Order(NamedTuple):
 
 @dataclass
 class Player:
+    """The player of one compiled net: its marking, its timers' clocks, the behaviours it has
+    switched on, its status, and the outbox of orders for the vehicle (the module's doc)."""
+
     net: Net
     params: dict[str, Any] = field(default_factory=dict)  # values of unresolved parameters
-    observers: list[Callable[[Record], None]] = field(default_factory=list)
+    # who hears the records: append to (or remove from) this list, which the reporting reads
+    observers: list[Observer] = field(default_factory=list)
     marking: list[int] = field(init=False)
     enabled_since: dict[int, float] = field(init=False, default_factory=dict)
     behaviours_on: dict[str, str] = field(init=False, default_factory=dict)  # -> task
@@ -112,6 +78,8 @@ class Player:
     fired: int = field(init=False, default=0)
     # the orders not yet taken by whoever runs the player (the runner drains it)
     outbox: deque[Order] = field(init=False, default_factory=deque)
+    # how the records reach the observers (petri/execution/reporting.py)
+    reporting: Reporting = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self.rules = Semantics(self.net)
@@ -122,10 +90,7 @@ class Player:
         self._queued = {i for _, i in self._candidates}
         self._clock = float("-inf")  # the time of the last firing: never goes back
         self._instant: dict[int, float] = {}  # transition -> the instant it last fired at
-        self._untold: deque[Record] = deque()  # records not yet given to the observers
-        self._steps = 0  # > 0 inside a step (a firing, the end): records wait for its end
-        self._calls = 0  # > 0 inside a call of the player: an observer's error waits for it
-        self._failure: Exception | None = None  # the first observer error of the call
+        self.reporting = Reporting(self.observers)
 
     # -- the three ways a transition fires -------------------------------------------------
     @whole
@@ -250,7 +215,7 @@ class Player:
         self.status = "running"  # so that _check_end reports (and switches off what is on)
         self._check_end(self._clock)
         if not self.finished:  # the net could not end (a bug, or not started): end it here
-            with self._step():
+            with self.reporting.step():
                 self._switch_off(self._clock)
                 self.status = "fail"
                 self._emit(self._clock, "status", {"status": "fail"})
@@ -294,7 +259,8 @@ class Player:
         and only then the records to the observers."""
         tr = self.net.transitions[t]
         rules = self.rules
-        self._steps += 1  # as self._step(), written out: this is the player's hot path
+        reporting = self.reporting
+        reporting.steps += 1  # as reporting.step(), written out: the player's hot path
         try:
             rules.fire(self.marking, t)
             self.fired += 1
@@ -312,7 +278,7 @@ class Player:
                         self._queued.add(r)
             rules.rearm(self.marking, self.enabled_since, now, fired=t)
         finally:
-            self._end_step()
+            reporting.end_step()
 
     def _send(self, action: Action, task: str, now: float, last_resort: bool = False) -> None:
         """Send an action. A ``disable`` that leaves another holder of the behaviour (a
@@ -344,7 +310,7 @@ class Player:
         status = self.rules.end_status(self.marking)
         if status is None:
             return
-        with self._step():  # the end: its status, the cleanup and its orders
+        with self.reporting.step():  # the end: its status, the cleanup and its orders
             self.status = status
             if self.behaviours_on:  # the last line of defence (docs/SEMANTICS.md)
                 left = ", ".join(sorted(self.behaviours_on))
@@ -365,38 +331,7 @@ class Player:
 
     # -- telling the observers --------------------------------------------------------------
     def _emit(self, now: float, kind: str, data: dict[str, Any]) -> None:
-        self._untold.append(Record(now, kind, data))
-        if not self._steps:
-            self._tell()
-
-    @contextmanager
-    def _step(self) -> Iterator[None]:
-        """A step of the player: the records emitted inside wait for its end."""
-        self._steps += 1
-        try:
-            yield
-        finally:
-            self._end_step()
-
-    def _end_step(self) -> None:
-        self._steps -= 1
-        if not self._steps:
-            self._tell()
-
-    def _tell(self) -> None:
-        """Give every waiting record to every observer, in order; keep the first exception
-        an observer raises for the end of the call (:func:`whole`)."""
-        while self._untold:
-            record = self._untold.popleft()
-            for observe in self.observers:
-                try:
-                    observe(record)
-                except Exception as exc:  # an observer's failure must not cut the player
-                    if self._failure is None:
-                        self._failure = exc
-        if not self._calls and self._failure is not None:  # outside a call: at once
-            failure, self._failure = self._failure, None
-            raise failure
+        self.reporting.emit(Record(now, kind, data))
 
     # -- for observers ----------------------------------------------------------------------
     @property

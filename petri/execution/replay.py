@@ -92,6 +92,8 @@ def unexplained(records: list[dict[str, Any]]) -> Conformance | None:
 
 
 def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Conformance:
+    """Does the run log ``records`` (header first, each with its ``_line``) conform to
+    ``net`` run with ``params``? The first record that does not is named by its line."""
     bad_record = malformed(records) or unexplained(records)
     if bad_record is not None:
         return bad_record
@@ -100,100 +102,137 @@ def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Co
         return Conformance(False, len(records), 0, header["_line"],
                            "the log was made with a different net: the mission, its task "
                            "library or its parameters have changed since the run")
-    rules = Semantics(net)
-    marking = rules.initial()
-    since: dict[int, float] = {}
-    pending: list[dict[str, Any]] = []  # actions the last firing must have sent
-    firings = 0
-    ends = rules.ends
-
-    def enabled(t: int) -> bool:
-        return rules.enabled(marking, t)
-
-    def bad(r: dict[str, Any], reason: str) -> Conformance:
-        return Conformance(False, len(records), firings, r["_line"], reason)
-
-    cleanup: set[str] | None = None  # what the player's cleanup has still to switch off
-    on: set[str] = set()  # behaviours the logged actions have switched on
+    replay = Replay(net, params)
     for r in records[1:]:
+        reason = replay.step(r)
+        if reason is not None:
+            return Conformance(False, len(records), replay.firings, r["_line"], reason)
+    if replay.pending:
+        return Conformance(False, len(records), replay.firings, records[-1]["_line"],
+                           "the log ends before the last firing's actions")
+    return Conformance(True, len(records), replay.firings)
+
+
+class Replay:
+    """The rules played over a log, record by record: the marking the logged firings led to,
+    the timers' clocks, the actions the last firing must still have sent, the behaviours the
+    logged actions have switched on, and what the player's cleanup has still to switch off.
+    Each step returns why its record breaks a rule, or None."""
+
+    def __init__(self, net: Net, params: dict[str, Any]) -> None:
+        self.net = net
+        self.params = params
+        self.rules = Semantics(net)
+        self.marking = self.rules.initial()
+        self.since: dict[int, float] = {}  # the timers' clocks
+        self.pending: list[dict[str, Any]] = []  # actions the last firing must have sent
+        self.firings = 0
+        self.cleanup: set[str] | None = None  # what the player's cleanup has still to switch off
+        self.on: set[str] = set()  # behaviours the logged actions have switched on
+
+    def step(self, r: dict[str, Any]) -> str | None:
+        """Play one record."""
         kind, now = r["kind"], float(r.get("t", 0.0))
         if kind == "status" and r.get("status") == "running":
-            rules.rearm(marking, since, now)
-            continue
+            self.rules.rearm(self.marking, self.since, now)
+            return None
         if kind == "action":
-            expected = pending.pop(0) if pending else None
-            got = {k: r.get(k) for k in ("action", "behaviour", "params")}
-            if expected is None and cleanup is not None:  # the last line of defence
-                if got != {"action": "disable", "behaviour": got["behaviour"], "params": {}} \
-                        or got["behaviour"] not in cleanup or r.get("task") != "MISSION":
-                    return bad(r, f"{got['action']} {got['behaviour']} at the end: only a "
-                                  "plain disable of a behaviour the cleanup names may follow")
-                cleanup.discard(str(got["behaviour"]))
-                on.discard(str(got["behaviour"]))
-                continue
-            if expected is None and r.get("task") == "MISSION":
-                return bad(r, f"{got['action']} {got['behaviour']} by MISSION with no "
-                              "'cleanup' record before it (a log from before cleanup "
-                              "records cannot be replayed)")
-            if expected != got:
-                return bad(r, f"action {got['action']} {got['behaviour']} is not what the last "
-                              f"firing sends (expected {expected})")
-            if got["action"] == "enable":
-                on.add(str(got["behaviour"]))
-            elif got["action"] == "disable":
-                on.discard(str(got["behaviour"]))
-            continue
-        if pending:
-            return bad(r, f"the last firing should have sent {pending[0]['action']} "
-                          f"{pending[0]['behaviour']} first")
+            return self.action(r)
+        if self.pending:
+            return (f"the last firing should have sent {self.pending[0]['action']} "
+                    f"{self.pending[0]['behaviour']} first")
         if kind == "fire":
-            t = r.get("index")
-            if not isinstance(t, int) or not 0 <= t < len(net.transitions) or \
-                    net.transitions[t].name != r.get("transition"):
-                return bad(r, f"no transition {r.get('transition')!r} at index {t} in the net")
-            tr = net.transitions[t]
-            if not enabled(t):
-                return bad(r, f"{tr.name} is not enabled here")
-            cause = r.get("cause")
-            stop = t in rules.stops and cause in (LINK_LOST, "abort")
-            if tr.event is not None and cause != tr.event and not stop:
-                return bad(r, f"{tr.name} waits for {tr.event}, but the log says {cause}")
-            if tr.timer is not None:
-                seconds = rules.seconds(t, params)
-                due = since.get(t, now) + seconds
-                if now + 1e-6 < due:
-                    return bad(r, f"{tr.name} fired before its {seconds:g} s were up")
-                if now > due + 1e-6:  # the player fires a timer at its time, never later
-                    return bad(r, f"{tr.name} fired at {now:g} s, after its time "
-                                  f"({due:g} s): a timer fires when it falls due")
-            if tr.immediate and cause != "immediate":
-                return bad(r, f"{tr.name} is immediate but the log says {cause}")
-            rules.fire(marking, t)
-            firings += 1
-            # a disable that leaves another holder is not sent (a shared watcher stays on)
-            pending = [{"action": a.kind, "behaviour": a.behaviour,
-                        "params": {k: resolve(v, params) for k, v in a.params}}
-                       for a in tr.actions
-                       if a.kind != "disable" or not rules.held(marking, a.behaviour)]
-            rules.rearm(marking, since, now, fired=t)
-        elif kind == "cleanup":
-            named = set(r["behaviours"])
-            if cleanup is not None:
-                return bad(r, "a second cleanup")
-            if named != on:
-                return bad(r, f"a cleanup of {sorted(named)}, but the behaviours on are "
-                              f"{sorted(on)}")
-            cleanup = named
-        elif kind == "status":
-            if on:  # the player switches off whatever is left before it says so
-                return bad(r, f"the mission ends with {', '.join(sorted(on))} still on")
-            status = r.get("status")
-            marked = {s for p, s in ends.items() if marking[p] > 0}
-            if status not in marked:
-                return bad(r, f"status {status!r}, but the net's marking says "
-                              f"{sorted(marked) or 'still running'}")
-    if pending:
-        return Conformance(False, len(records), firings, records[-1]["_line"],
-                           "the log ends before the last firing's actions")
-    return Conformance(True, len(records), firings)
+            return self.fire(r, now)
+        if kind == "cleanup":
+            return self.clean_up(r)
+        if kind == "status":
+            return self.status(r)
+        return None
 
+    def action(self, r: dict[str, Any]) -> str | None:
+        """An action must be the next of those the last firing sends, or, after the cleanup,
+        a plain disable of a behaviour it names."""
+        expected = self.pending.pop(0) if self.pending else None
+        got = {k: r.get(k) for k in ("action", "behaviour", "params")}
+        if expected is None and self.cleanup is not None:  # the last line of defence
+            if got != {"action": "disable", "behaviour": got["behaviour"], "params": {}} \
+                    or got["behaviour"] not in self.cleanup or r.get("task") != "MISSION":
+                return (f"{got['action']} {got['behaviour']} at the end: only a plain "
+                        "disable of a behaviour the cleanup names may follow")
+            self.cleanup.discard(str(got["behaviour"]))
+            self.on.discard(str(got["behaviour"]))
+            return None
+        if expected is None and r.get("task") == "MISSION":
+            return (f"{got['action']} {got['behaviour']} by MISSION with no 'cleanup' record "
+                    "before it (a log from before cleanup records cannot be replayed)")
+        if expected != got:
+            return (f"action {got['action']} {got['behaviour']} is not what the last firing "
+                    f"sends (expected {expected})")
+        if got["action"] == "enable":
+            self.on.add(str(got["behaviour"]))
+        elif got["action"] == "disable":
+            self.on.discard(str(got["behaviour"]))
+        return None
+
+    def fire(self, r: dict[str, Any], now: float) -> str | None:
+        """A firing must be of an enabled transition, for its cause, at its time; it then
+        fires, and the actions it sends are expected next."""
+        net, rules, t = self.net, self.rules, r.get("index")
+        if not isinstance(t, int) or not 0 <= t < len(net.transitions) or \
+                net.transitions[t].name != r.get("transition"):
+            return f"no transition {r.get('transition')!r} at index {t} in the net"
+        tr = net.transitions[t]
+        if not rules.enabled(self.marking, t):
+            return f"{tr.name} is not enabled here"
+        cause = r.get("cause")
+        stop = t in rules.stops and cause in (LINK_LOST, "abort")
+        if tr.event is not None and cause != tr.event and not stop:
+            return f"{tr.name} waits for {tr.event}, but the log says {cause}"
+        if tr.timer is not None:
+            late_or_early = self.timer(t, now)
+            if late_or_early is not None:
+                return late_or_early
+        if tr.immediate and cause != "immediate":
+            return f"{tr.name} is immediate but the log says {cause}"
+        rules.fire(self.marking, t)
+        self.firings += 1
+        # a disable that leaves another holder is not sent (a shared watcher stays on)
+        self.pending = [{"action": a.kind, "behaviour": a.behaviour,
+                         "params": {k: resolve(v, self.params) for k, v in a.params}}
+                        for a in tr.actions
+                        if a.kind != "disable" or not rules.held(self.marking, a.behaviour)]
+        rules.rearm(self.marking, self.since, now, fired=t)
+        return None
+
+    def timer(self, t: int, now: float) -> str | None:
+        """A timer fires when it falls due: not before its time, and never later."""
+        name = self.net.transitions[t].name
+        seconds = self.rules.seconds(t, self.params)
+        due = self.since.get(t, now) + seconds
+        if now + 1e-6 < due:
+            return f"{name} fired before its {seconds:g} s were up"
+        if now > due + 1e-6:  # the player fires a timer at its time, never later
+            return (f"{name} fired at {now:g} s, after its time ({due:g} s): a timer fires "
+                    "when it falls due")
+        return None
+
+    def clean_up(self, r: dict[str, Any]) -> str | None:
+        """The player's own switch-off: one, naming exactly the behaviours still on."""
+        named = set(r["behaviours"])
+        if self.cleanup is not None:
+            return "a second cleanup"
+        if named != self.on:
+            return f"a cleanup of {sorted(named)}, but the behaviours on are {sorted(self.on)}"
+        self.cleanup = named
+        return None
+
+    def status(self, r: dict[str, Any]) -> str | None:
+        """An end status must be what the end places show, with every behaviour off."""
+        if self.on:  # the player switches off whatever is left before it says so
+            return f"the mission ends with {', '.join(sorted(self.on))} still on"
+        status = r.get("status")
+        marked = {s for p, s in self.rules.ends.items() if self.marking[p] > 0}
+        if status not in marked:
+            return (f"status {status!r}, but the net's marking says "
+                    f"{sorted(marked) or 'still running'}")
+        return None

@@ -5,7 +5,7 @@ written. The first record is a header that says which mission, which net (a dige
 compiled net) and which parameters were run, so that ``mcl replay`` can check the log against
 the same net; the last record says how and why the run ended (``"kind": "end"``).
 
-Between them, one record per :class:`~petri.execution.player.Record` of the player, with its
+Between them, one record per :class:`~petri.execution.reporting.Record` of the player, with its
 mission time ``t``, its ``kind`` and its fields:
 
 ==========  ===================================================================================

@@ -27,12 +27,13 @@ what was switched off is off, where its link can say so (``vehicle.confirm_off``
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from aal.messages import ActionMessage, Vehicle
+from aal.messages import ActionMessage, EventMessage, Vehicle
 
 from petri.execution.player import Order, Player
 
@@ -71,127 +72,184 @@ def run(player: Player, vehicle: Vehicle, mission: str, max_time: float = UNBOUN
     """Run to the end. ``poll``: the longest single wait (wall-time vehicles); ``stop``:
     called every round, returns why to stop now (or None)."""
     clock = clock if clock is not None else MissionClock()
-    seq = iter(range(1 << 62))
-    failures: list[str] = []  # what the vehicle raised while an action was sent
-    disabled: list[str] = []  # behaviours disabled once the run is being stopped
-    stopping = [False]
-
-    def send(order: Order) -> None:
-        if stopping[0] and order.kind == "disable":
-            disabled.append(order.behaviour)
-        try:
-            vehicle.send(ActionMessage(next(seq), order.t, mission, order.task, order.kind,
-                                       order.behaviour, order.params))
-        except Exception as exc:  # noqa: BLE001 - reported, then the run is stopped safely
-            failures.append(f"sending {order.kind} {order.behaviour}: "
-                            f"{type(exc).__name__}: {exc}")
-            log.warning("vehicle refused an action: %s", failures[-1])
-
-    def drain() -> None:
-        """Send the orders waiting in the player's outbox, oldest first."""
-        while player.outbox:
-            send(player.outbox.popleft())
-
-    def end(status: str, t: float, rounds: int, reason: str) -> Outcome:
-        stopping[0] = True
-        drain()  # what the player decided before the stop goes out first
-        trouble: list[Exception] = []
-        if status == "timeout" and not player.finished:
-            try:
-                player.settle(t)  # the timers due at the limit itself still fire
-            except Exception as exc:  # noqa: BLE001 - the abort below still runs
-                trouble.append(exc)
-            drain()
-            if player.finished and not trouble:  # they ended the mission by themselves
-                return _ended(player, vehicle, t, rounds, disabled, confirm)
-        try:
-            player.abort(t, reason)
-        except Exception as exc:  # noqa: BLE001 - an observer, or a bug in the player
-            trouble.append(exc)
-        drain()
-        if trouble:
-            log.error("the player could not abort cleanly (%s): switching off what is on",
-                      trouble[0])
-            for b in sorted(player.behaviours_on):  # what the net could not switch off
-                send(Order(t, "MISSION", "disable", b, {}))
-        outcome = Outcome(status, t, rounds, reason, switched_off=sorted(set(disabled)))
-        outcome.confirmed = _confirm(vehicle, outcome.switched_off, confirm)
-        return outcome
-
     try:
         clock.origin = vehicle.now()
     except Exception as exc:  # noqa: BLE001
         return Outcome("error", 0.0, 0, f"the vehicle's clock: {type(exc).__name__}: {exc}")
-    origin = clock.origin
+    this = Run(player, vehicle, mission, clock.origin, max_time, poll, stop, confirm)
     why = stop() if stop is not None else None
     if why:  # stopped before anything was sent
-        return end("stopped", 0.0, 0, why)
-    limit = max_time if math.isfinite(max_time) else math.inf
-    simulated = bool(getattr(vehicle, "simulated", False))
-    last_seq, now, rounds = -1, 0.0, 0
-    try:
+        return this.end("stopped", 0.0, why)
+    return this.play(max_rounds)
+
+
+class Run:
+    """One run of a player against a vehicle, between its start and its outcome: the orders
+    sent (numbered in order), what the vehicle refused, and what was switched off once the run
+    was being stopped. :func:`run` makes one; its methods are the run's steps: a round, the
+    end of the mission, the abort path."""
+
+    def __init__(self, player: Player, vehicle: Vehicle, mission: str, origin: float,
+                 max_time: float, poll: float, stop: Callable[[], str | None] | None,
+                 confirm: float) -> None:
+        self.player = player
+        self.vehicle = vehicle
+        self.mission = mission
+        self.origin = origin  # the vehicle's clock at the mission's start
+        self.max_time = max_time
+        self.limit = max_time if math.isfinite(max_time) else math.inf
+        self.poll = poll
+        self.stop = stop
+        self.confirm = confirm
+        self.simulated = bool(getattr(vehicle, "simulated", False))
+        self.seq = itertools.count()  # the numbers of the orders sent
+        self.failures: list[str] = []  # what the vehicle raised while an action was sent
+        self.disabled: list[str] = []  # behaviours disabled once the run is being stopped
+        self.stopping = False
+        self.last_seq = -1  # the sequence number of the last event delivered
+        self.now = 0.0  # mission time at the last reading of the vehicle's clock
+        self.rounds = 0
+
+    # -- orders out ---------------------------------------------------------------------------
+    def send(self, order: Order) -> None:
+        """Send one order; what the vehicle raises is kept, to stop the run at the next round."""
+        if self.stopping and order.kind == "disable":
+            self.disabled.append(order.behaviour)
         try:
-            player.start(0.0)
-        finally:
-            drain()
-        for rounds in range(1, max_rounds + 1):
-            now = vehicle.now() - origin
-            if player.finished:
-                return _ended(player, vehicle, now, rounds, disabled, confirm)
-            if failures:
-                return end("error", now, rounds, f"the vehicle failed: {failures[0]}")
-            why = stop() if stop is not None else None
-            if why:
-                return end("stopped", now, rounds, why)
-            if now >= limit - 1e-9:
-                return end("timeout", limit if simulated else now, rounds,
-                           f"mission time limit of {max_time:g} s reached")
-            deadline = player.next_deadline()
-            if deadline is None and vehicle.idle():
-                return end("stuck", now, rounds, "waiting for an event that will never "
-                           "come: no timer is armed and the vehicle is idle")
-            if simulated:  # the clock jumps: no need to poll, but never past the limit
-                until = min(deadline if deadline is not None else limit, limit)
-            else:
-                until = min(deadline if deadline is not None else now + poll, now + poll,
-                            limit)
-            for event in vehicle.receive(until + origin):
-                t = vehicle.now() - origin
-                if event.seq <= last_seq:
-                    player.note_ignored(event.event, t, f"seq {event.seq} after {last_seq}: "
-                                        "duplicate or out of order")
-                    continue
-                last_seq = event.seq
-                try:
-                    player.handle_event(event.event, t, event.data)
-                finally:
-                    drain()
+            self.vehicle.send(ActionMessage(next(self.seq), order.t, self.mission, order.task,
+                                            order.kind, order.behaviour, order.params))
+        except Exception as exc:  # noqa: BLE001 - reported, then the run is stopped safely
+            self.failures.append(f"sending {order.kind} {order.behaviour}: "
+                                 f"{type(exc).__name__}: {exc}")
+            log.warning("vehicle refused an action: %s", self.failures[-1])
+
+    def drain(self) -> None:
+        """Send the orders waiting in the player's outbox, oldest first."""
+        outbox = self.player.outbox
+        while outbox:
+            self.send(outbox.popleft())
+
+    # -- the loop -----------------------------------------------------------------------------
+    def mission_time(self) -> float:
+        return self.vehicle.now() - self.origin
+
+    def play(self, max_rounds: int) -> Outcome:
+        """Start the player and go round until the run ends; any exception (the vehicle, its
+        adapter, the player or an observer) stops it safely."""
+        try:
             try:
-                player.settle(min(vehicle.now() - origin, limit))
+                self.player.start(0.0)
             finally:
-                drain()
-    except Exception as exc:  # the vehicle, its adapter, the player or an observer: stop
-        try:                  # safely, then say
-            now = max(now, vehicle.now() - origin)
-        except Exception:  # noqa: BLE001 - the clock itself failed: keep the last reading
-            pass
-        return end("error", now, rounds, f"{type(exc).__name__}: {exc}")
-    return end("timeout", vehicle.now() - origin, max_rounds, "round limit reached")
+                self.drain()
+            for rounds in range(1, max_rounds + 1):
+                self.rounds = rounds
+                outcome = self.round()
+                if outcome is not None:
+                    return outcome
+        except Exception as exc:  # noqa: BLE001 - stop safely, then say
+            try:
+                self.now = max(self.now, self.mission_time())
+            except Exception:  # noqa: BLE001 - the clock itself failed: keep the last reading
+                pass
+            return self.end("error", self.now, f"{type(exc).__name__}: {exc}")
+        return self.end("timeout", self.mission_time(), "round limit reached")
 
+    def round(self) -> Outcome | None:
+        """One round: the outcome if the run ends here, else wait for the vehicle's events
+        until the next timer falls due (never past the limit), then settle the player."""
+        self.now = now = self.mission_time()
+        ending = self.reason_to_end(now)
+        if ending is not None:
+            return ending
+        deadline = self.player.next_deadline()
+        if deadline is None and self.vehicle.idle():
+            return self.end("stuck", now, "waiting for an event that will never come: no "
+                                          "timer is armed and the vehicle is idle")
+        limit = self.limit
+        if self.simulated:  # the clock jumps: no need to poll, but never past the limit
+            until = min(deadline if deadline is not None else limit, limit)
+        else:
+            until = min(deadline if deadline is not None else now + self.poll,
+                        now + self.poll, limit)
+        for event in self.vehicle.receive(until + self.origin):
+            self.deliver(event)
+        try:
+            self.player.settle(min(self.mission_time(), limit))
+        finally:
+            self.drain()
+        return None
 
-def _ended(player: Player, vehicle: Vehicle, now: float, rounds: int, disabled: list[str],
-           confirm: float) -> Outcome:
-    outcome = Outcome(player.status, now, rounds)
-    outcome.confirmed = _confirm(vehicle, sorted(set(disabled)), confirm)
-    return outcome
+    def reason_to_end(self, now: float) -> Outcome | None:
+        """The outcome, if the run ends at this round: the mission ended, the vehicle failed,
+        ``stop()`` asked for it, or the time limit is reached."""
+        if self.player.finished:
+            return self.ended(now)
+        if self.failures:
+            return self.end("error", now, f"the vehicle failed: {self.failures[0]}")
+        why = self.stop() if self.stop is not None else None
+        if why:
+            return self.end("stopped", now, why)
+        if now >= self.limit - 1e-9:
+            return self.end("timeout", self.limit if self.simulated else now,
+                            f"mission time limit of {self.max_time:g} s reached")
+        return None
 
+    def deliver(self, event: EventMessage) -> None:
+        """Give one event to the player, unless it is a duplicate or comes out of order."""
+        t = self.mission_time()
+        if event.seq <= self.last_seq:
+            self.player.note_ignored(event.event, t, f"seq {event.seq} after {self.last_seq}: "
+                                     "duplicate or out of order")
+            return
+        self.last_seq = event.seq
+        try:
+            self.player.handle_event(event.event, t, event.data)
+        finally:
+            self.drain()
 
-def _confirm(vehicle: Vehicle, names: list[str], timeout: float) -> str:
-    """Ask the vehicle (if its adapter can) to confirm that everything is off, bounded."""
-    check = getattr(vehicle, "confirm_off", None)
-    if check is None:
-        return "not confirmed: this link cannot say"
-    try:
-        return str(check(names, timeout))
-    except Exception as exc:  # noqa: BLE001 - a report, not a reason to fail the exit path
-        return f"not confirmed: {type(exc).__name__}: {exc}"
+    # -- the end ------------------------------------------------------------------------------
+    def ended(self, now: float) -> Outcome:
+        """The mission ended by itself, ok or fail."""
+        outcome = Outcome(self.player.status, now, self.rounds)
+        outcome.confirmed = self.confirmation(sorted(set(self.disabled)))
+        return outcome
+
+    def end(self, status: str, t: float, reason: str) -> Outcome:
+        """The abort path: what the player decided goes out, then (at the time limit) the
+        timers due at the limit itself fire, then :meth:`Player.abort`, then, if the player
+        could not abort cleanly, a disable of everything still on; the vehicle is asked to
+        confirm the switch-off."""
+        self.stopping = True
+        self.drain()  # what the player decided before the stop goes out first
+        trouble: list[Exception] = []
+        if status == "timeout" and not self.player.finished:
+            try:
+                self.player.settle(t)  # the timers due at the limit itself still fire
+            except Exception as exc:  # noqa: BLE001 - the abort below still runs
+                trouble.append(exc)
+            self.drain()
+            if self.player.finished and not trouble:  # they ended the mission by themselves
+                return self.ended(t)
+        try:
+            self.player.abort(t, reason)
+        except Exception as exc:  # noqa: BLE001 - an observer, or a bug in the player
+            trouble.append(exc)
+        self.drain()
+        if trouble:
+            log.error("the player could not abort cleanly (%s): switching off what is on",
+                      trouble[0])
+            for b in sorted(self.player.behaviours_on):  # what the net could not switch off
+                self.send(Order(t, "MISSION", "disable", b, {}))
+        outcome = Outcome(status, t, self.rounds, reason, switched_off=sorted(set(self.disabled)))
+        outcome.confirmed = self.confirmation(outcome.switched_off)
+        return outcome
+
+    def confirmation(self, names: list[str]) -> str:
+        """Ask the vehicle (if its adapter can) to confirm that everything is off, bounded."""
+        check = getattr(self.vehicle, "confirm_off", None)
+        if check is None:
+            return "not confirmed: this link cannot say"
+        try:
+            return str(check(names, self.confirm))
+        except Exception as exc:  # noqa: BLE001 - a report, not a reason to fail the exit path
+            return f"not confirmed: {type(exc).__name__}: {exc}"

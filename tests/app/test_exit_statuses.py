@@ -64,8 +64,8 @@ def test_the_scan_finds_what_it_looks_for(tmp_path: Path) -> None:
                     "128 + signum", "return Exit.OK if y else 1"], hits
 
 
-@pytest.mark.parametrize("module", [*(m for m, _ in COMMANDS.values()), "app.check",
-                                    "app.pnml_report", "app.guard"])
+@pytest.mark.parametrize("module", ["app.mclc", "app.mcl", *(m for m, _ in COMMANDS.values()),
+                                    "app.check", "app.pnml_report", "app.guard"])
 def test_each_command_points_to_the_page(module: str) -> None:
     path = REPO / Path(*module.split(".")).with_suffix(".py")
     doc = ast.get_docstring(ast.parse(path.read_text("utf-8"))) or ""

@@ -365,7 +365,7 @@ def test_mission_time_starts_at_0_whatever_the_vehicle_clock_reads(tmp_path: Pat
 
 
 def test_the_monitor_shows_the_vehicle_clock_beside_mission_time() -> None:
-    from app.monitor import _beside
+    from app.monitor import vehicle_time_beside as _beside
 
     assert _beside({"t": 10.0, "clock": 1425.9}, 12.0) == " (vehicle 1427.9 s)"
     assert _beside({"t": 10.0, "clock": 10.0}, 12.0) == ""

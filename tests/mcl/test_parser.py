@@ -181,6 +181,27 @@ def test_the_table_of_places_covers_every_example() -> None:
     assert examples == set(MISTAKE_PLACES)
 
 
+@pytest.mark.parametrize("code,example", [(code, ex) for code, (_, _, examples)
+                                          in KNOWN_MISTAKES.items() for ex in examples])
+@pytest.mark.parametrize("before", ["PARAM a = 1;\n", "PARAM a = 1;\nPARAM b = (1, 2);\n"])
+def test_a_known_mistake_is_recognised_after_param_lines(code: str, example: str,
+                                                          before: str) -> None:
+    d = _error(before + example)
+    assert d.code == code
+    line, col = MISTAKE_PLACES[example].split(":")
+    assert _where(d) == f"m.mcl:{int(line) + before.count(chr(10))}:{col}"
+
+
+@pytest.mark.parametrize("text,where", [
+    ("MISSION {\n  A();\n  B()\n", "3:6"),  # issue 21: was "'}' missing before CATCH"
+    ("PARAM d = 1 m;\nMISSION {\n  A(d);\n  B(timeout = 2 min)\n", "4:21"),
+    ("MISSION {\n  PARALLEL {\n    A();\n    B()\n  } AND { C() }\n", "5:16"),
+])
+def test_a_missing_final_brace_is_named_as_such(text: str, where: str) -> None:
+    d = _error(text)
+    assert (d.code, _where(d)) == ("unclosed-block", f"m.mcl:{where}")
+
+
 @pytest.mark.parametrize("text,code,where,words", [
     ("mission { A() }", "lower-case-keyword", "1:1", "write MISSION, not mission"),
     ("MISSION {\n  A();\n  try { B() } CATCH { C() } DO { D() }\n}", "lower-case-keyword",
@@ -282,12 +303,16 @@ def test_parse_value_refuses_what_is_not_one_value(text: str, code: str, col: in
     assert (d.code, str(d.span)) == (code, f"<command line>:1:{col}")
 
 
-@pytest.mark.xfail(strict=True, reason="parse_value places its errors on line 1, counting "
-                   "columns from the value, not where line= and column= say it starts")
 def test_parse_value_places_an_error_where_the_value_was_written() -> None:
     with pytest.raises(MclError) as info:
         parse_value("1 feet", "f.params", line=3, column=5)
     assert str(info.value.errors[0].span) == "f.params:3:7"  # 'feet'
+
+
+def test_parse_value_places_a_cut_short_value_after_its_end() -> None:
+    with pytest.raises(MclError) as info:
+        parse_value("(1,", "f.params", line=2, column=4)
+    assert str(info.value.errors[0].span) == "f.params:2:7"
 
 
 # -- files -----------------------------------------------------------------------------------

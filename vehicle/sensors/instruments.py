@@ -376,6 +376,12 @@ class Sensors:
                                   self.camera, *self.housings]
         self._rngs = rng.spawn(len(self.all))
 
+    def remove(self, sensor: Sensor) -> None:
+        """Take a sensor out of the bundle; the others keep their own streams (and readings)."""
+        i = self.all.index(sensor)
+        del self.all[i]
+        del self._rngs[i]
+
     def sample(self, t: float, truth: VehicleState) -> list[Reading]:
         """Every reading due at t (several from one sensor if the caller stepped past them)."""
         out: list[Reading] = []

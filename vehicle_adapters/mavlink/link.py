@@ -96,7 +96,7 @@ class MavlinkVehicle(RemoteVehicle):
         return self.commands.command(command, *params, wait=wait)
 
     def set_mode(self, mode: str) -> None:
-        with self._lock:  # a mode we ask for is no take-over: watched from its first heartbeat
+        with self.lock:  # a mode we ask for is no take-over: watched from its first heartbeat
             self.health.expect(MODES[mode])
         self.commands.set_mode(mode)
 
@@ -115,13 +115,13 @@ class MavlinkVehicle(RemoteVehicle):
         """Wait for the vehicle, ask for telemetry, set GUIDED and arm (all bounded)."""
         deadline = time.monotonic() + self.connect_timeout
         if not self.health.heard.wait(self.connect_timeout):
-            self._link_lost(f"no HEARTBEAT from the vehicle on {self.url} within "
-                            f"{self.connect_timeout:g} s")
+            self.link_lost(f"no HEARTBEAT from the vehicle on {self.url} within "
+                           f"{self.connect_timeout:g} s")
             return
         for message_id, interval in intervals():
             self.commands.set_interval(message_id, interval)
         if self.arm:
-            with self._lock:
+            with self.lock:
                 self.health.expect(MODES["GUIDED"])
             refused = self.commands.take_control(lambda: deadline - time.monotonic())
             if refused is not None:
@@ -129,22 +129,22 @@ class MavlinkVehicle(RemoteVehicle):
                 hint = ""
                 if result is None and self.link.signing is None and self.health.signs:
                     hint = ": it signs its messages, give its key (--signing-key FILE)"
-                self._link_lost(f"the vehicle refused {what} ({result_name(result)})" + hint)
+                self.link_lost(f"the vehicle refused {what} ({result_name(result)})" + hint)
                 return
             # from its HEARTBEAT on, a change of mode we did not ask for is a take-over
             if not self.health.controlled.wait(max(0.1, deadline - time.monotonic())):
-                self._link_lost("the vehicle acknowledged GUIDED and arming but its "
-                                "HEARTBEAT never showed them")
+                self.link_lost("the vehicle acknowledged GUIDED and arming but its "
+                               "HEARTBEAT never showed them")
                 return
         self._positioned.wait(max(0.1, deadline - time.monotonic()))
 
     def __exit__(self, *exc: object) -> None:
         if self.link.conn is None:
             return
-        with self._lock:
+        with self.lock:
             self.health.release()  # disarming at the end is no take-over
         try:
-            if self.link.reading and not self._lost and self.arm and self.health.armed:
+            if self.link.reading and not self.lost and self.arm and self.health.armed:
                 self.commands.arm(False, wait=0.5)
         finally:
             self.link.close()
@@ -160,11 +160,11 @@ class MavlinkVehicle(RemoteVehicle):
         """Wait (at most ``timeout`` wall s) for the COMMAND_ACK of every command sent (the
         camera's and the logger's stop among them); the behaviours the adapter runs itself are
         off as soon as they are disabled."""
-        if self._lost:
+        if self.lost:
             return f"not confirmed: the link is lost ({self.lost_reason})"
 
         def on() -> list[str]:
-            with self._lock:
+            with self.lock:
                 return self.guided.on()
 
         return self.commands.confirm_off(names, on, timeout)
@@ -188,37 +188,37 @@ class MavlinkVehicle(RemoteVehicle):
             return
         t_ms = getattr(msg, "time_boot_ms", None)
         taken_over = ""
-        with self._lock:
+        with self.lock:
             if t_ms is not None:
                 self._on_clock(t_ms / 1000.0)
             if kind == "HEARTBEAT":
                 taken_over = self.health.on_heartbeat(msg, self.tel.critical_text(),
-                                                      self._lost)
+                                                      self.lost)
             elif self.tel.decode(msg):  # a new position: the behaviours' tick
                 self._positioned.set()
                 self._steer_locked()
         if taken_over:
-            self._link_lost(taken_over)
+            self.link_lost(taken_over)
 
     def _on_tick(self, now: float) -> None:
-        silent = self.health.silent(now, self._lost)
+        silent = self.health.silent(now, self.lost)
         if silent:
-            self._link_lost(silent)
-        self.commands.retry(now, give_up=self._lost)
+            self.link_lost(silent)
+        self.commands.retry(now, give_up=self.lost)
 
     def _on_clock(self, t: float) -> None:
         wall = time.monotonic()
-        if t <= self._base_t:
+        if t <= self.base_t:
             return
         if self._ref is None:
             self._ref = (t, wall)
         elif wall - self._ref[1] >= 0.2:  # the speed over the last fifth of a wall second
-            self._speed = (t - self._ref[0]) / (wall - self._ref[1])
+            self.speed = (t - self._ref[0]) / (wall - self._ref[1])
             self._ref = (t, wall)
-        if not self._lost:
-            self._clock_locked(t)
+        if not self.lost:
+            self.set_clock_locked(t)
 
-    # -- the behaviours the adapter runs (self._lock held) -------------------------------------
+    # -- the behaviours the adapter runs (self.lock held) --------------------------------------
     def _steer_locked(self) -> None:
         """Tick the behaviours, pass their events on, send the merged setpoint if due."""
         events, setpoint = self.guided.tick(perceive(self.tel))
@@ -228,14 +228,14 @@ class MavlinkVehicle(RemoteVehicle):
 
     def _say_locked(self, events: list[Event]) -> None:
         for behaviour, name, data in events:
-            self._events.put(EventMessage(self._next_seq_locked(), self._vehicle_time_locked(),
-                                          behaviour, name, data))
+            self.inbox.put(EventMessage(self.next_seq_locked(), self.vehicle_time_locked(),
+                                        behaviour, name, data))
 
     # -- the Vehicle protocol ---------------------------------------------------------------------
     def send(self, action: ActionMessage) -> None:
         if self.link.conn is None:
             raise RuntimeError("MavlinkVehicle used outside its 'with' block")
-        if self._lost:
+        if self.lost:
             log.warning("link lost: action %s %s not sent", action.kind, action.behaviour)
             return
         self.sent += 1
@@ -248,12 +248,12 @@ class MavlinkVehicle(RemoteVehicle):
                 log.warning("no MAVLink mapping for behaviour %s: action dropped", name)
                 self.unknown_actions.append(name)
             return
-        with self._lock:
+        with self.lock:
             mode = self.guided.act(name, kind, action.params, perceive(self.tel),
                                    guided=self.health.mode == MODES["GUIDED"])
         if mode:  # before the setpoint: ArduSub ignores setpoints outside GUIDED
             self.set_mode(mode)
-        with self._lock:
+        with self.lock:
             if kind != "disable":
                 self.guided.resend()
                 if self.tel.positioned:

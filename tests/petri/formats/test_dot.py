@@ -9,12 +9,13 @@ machinery, with the mission's normal flow from its start to each task.
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import pytest
 
 from diagnostics import Source
 from mcl import tasklib
-from mcl.api import compile_source
+from mcl.api import compile_file, compile_source
 from petri.formats.dot import to_dot
 from petri.net import Action, Net
 
@@ -66,7 +67,7 @@ def test_the_full_view_has_every_place_and_transition_and_arc() -> None:
 
 def test_the_full_view_shows_marking_weights_events_timers_and_actions() -> None:
     nodes, edges = _graph(to_dot(_weighted()))
-    assert 'label="a\\\\n● ×2"' in nodes["p0"]  # two tokens
+    assert 'label="a\\n● ×2"' in nodes["p0"]  # two tokens, under the name (a DOT line break)
     assert 'fillcolor="#d7ecff"' in nodes["p1"] and "fillcolor" not in nodes["p0"]
     assert nodes["t0"].endswith('label="go\\non Probe.ok\\nenable Lamp"')
     assert nodes["t1"].endswith('label="u\\nafter 1.5"')
@@ -88,7 +89,7 @@ def test_the_task_view_collapses_each_task_and_leaves_out_the_abort_machinery() 
     tasks = {n: attrs for n, attrs in nodes.items() if n.startswith("task:")}
     assert set(tasks) == {"task:2:3", "task:2:19", "task:2:30"}
     assert all('fillcolor="#bbbbbb"' in attrs for attrs in tasks.values())
-    assert 'label="Wait(1 s)\\\\nline 2"' in tasks["task:2:30"]
+    assert 'label="Wait(1 s)\\nline 2"' in tasks["task:2:30"]
     boxes = [attrs for attrs in nodes.values() if "shape=box" in attrs]
     assert not [b for b in boxes if "aborted" in b or "had already ended" in b]
     labels = " ".join(boxes)
@@ -120,8 +121,26 @@ def test_in_the_task_view_every_task_follows_from_the_start(body: str) -> None:
     assert {n for n in nodes if n.startswith("task:")} <= reached
 
 
-@pytest.mark.xfail(strict=True, reason="the CATCH-first path to DO passes through the "
-                   "absorption of TRY's abort, which the task view leaves out: DO hangs loose")
 def test_in_the_task_view_do_follows_from_catch() -> None:
     nodes, edges = _graph(to_dot(_mission("TRY { A() } CATCH { B() } DO { C() }"), "tasks"))
     assert "task:2:34" in nodes and "task:2:34" in _reachable(edges, "p0")
+
+
+SHIPPED = sorted((Path(__file__).parents[3] / "missions").glob("*.mcl"))
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.name)
+def test_the_task_view_of_a_shipped_mission_is_one_connected_flow(path: Path) -> None:
+    """Issue 21: the task view of the dam mission had places floating on top, unconnected."""
+    net = compile_file(str(path)).net
+    nodes, edges = _graph(to_dot(net, "tasks"))
+    start = next(n for n, attrs in nodes.items() if 'tooltip="MISSION.begin"' in attrs)
+    tasks = {n for n in nodes if n.startswith("task:")}
+    assert len(tasks) >= 4 and tasks <= _reachable(edges, start)
+    linked = {a for a, _ in edges} | {b for _, b in edges}
+    assert set(nodes) <= linked
+
+
+def test_labels_break_lines_as_graphviz_does_not_with_a_written_backslash() -> None:
+    text = to_dot(_mission("A(); B()"), "tasks") + to_dot(_weighted())
+    assert "\\n" in text and "\\\\n" not in text
