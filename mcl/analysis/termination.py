@@ -1,6 +1,4 @@
-"""``terminates`` for a mission read as users read it: every run ends, whatever the vehicle
-answers (issue 21). Not yet what ``mclc`` reports: :func:`result` is ready to be passed to
-``petri.verification.properties.verify`` (``termination=``) and used by the structural route.
+"""``terminates`` for a mission: every run ends, whatever the vehicle answers.
 
 The decision is the proved worst-case duration (:func:`mcl.analysis.duration.analyse`, from
 the mission's timeouts and timers only): the mission terminates exactly when it is finite.

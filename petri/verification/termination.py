@@ -1,14 +1,16 @@
-"""The properties about ending: ``terminates``, ``no-zeno`` and ``stop-safe``.
+"""The properties about ending: ``terminates``, ``can-end``, ``no-zeno`` and ``stop-safe``.
 
-Also the pieces of the stronger reading of termination (issue 21: every run ends), not yet
-what :func:`petri.verification.properties.verify` reports: :func:`every_run_ends`, the graph
-rule for a plain net (a reachable cycle of the main model is a run that can go on for ever),
-and :func:`lasso_through`, a loop through given transitions (mcl/analysis/termination.py
-shows a mission's unbounded WHILE with it).
+``terminates``: every run ends — no run of the main model (no external stop) can go on for
+ever. For a plain net it is the *graph rule* (:func:`terminates`): a reachable cycle of the
+main model is a run that some answers of the environment keep going for ever. A mission
+compiled from MCL decides it instead from its proved worst-case duration
+(mcl/analysis/termination.py, passed to ``verify`` as its ``terminates``), since its timers
+bound loops the untimed graph has; :func:`lasso_through` then shows the loop.
+``can-end`` is the weaker property: from every reachable marking an end can still be reached.
 
-A violation of the first two is a loop: a *lasso*, the shortest firing sequence to a marking
-on the loop, then the loop (:func:`petri.verification.graph.lasso`). ``terminates`` is decided
-on the main model (no external stop); ``stop-safe`` on the stop region, reached by one.
+A violation of ``terminates`` and ``no-zeno`` is a loop: a *lasso*, the shortest firing
+sequence to a marking on the loop, then the loop (:func:`petri.verification.graph.lasso`).
+``stop-safe`` is decided on the stop region, reached by an external stop.
 """
 
 from __future__ import annotations
@@ -25,10 +27,10 @@ from petri.verification.verdict import Result, nearest, undecided
 
 
 Termination = Callable[[ReachabilityGraph, str, str], Result]
-"""A way to decide termination on the explored graph (its ``how`` and ``cut``)."""
+"""How a caller decides ``terminates`` on the explored graph (its ``how`` and ``cut``)."""
 
 
-def every_run_ends(g: ReachabilityGraph, how: str, cut: str) -> Result:
+def terminates(g: ReachabilityGraph, how: str, cut: str) -> Result:
     """The graph rule: every run ends when the main model has no reachable cycle (a loop
     the environment's answers can keep going for ever: its lasso is the counterexample)."""
     name = "terminates"
@@ -46,17 +48,19 @@ def every_run_ends(g: ReachabilityGraph, how: str, cut: str) -> Result:
                   "cycle", how + ", graph rule: no reachable cycle, so no run goes on for ever")
 
 
-def terminates(g: ReachabilityGraph, how: str, cut: str) -> Result:
-    """Main model: from every reachable marking an end can be reached."""
-    name = "terminates"
+def can_end(g: ReachabilityGraph, how: str, cut: str) -> Result:
+    """Main model: from every reachable marking an end can still be reached (weaker than
+    ``terminates``: a loop that can be left holds it)."""
+    name = "can-end"
     if cut:
         return undecided(name, cut, how)
-    can_end = g.main_arcs.reach(np.flatnonzero(g.terminal & g.main), backward=True,
+    reached = g.main_arcs.reach(np.flatnonzero(g.terminal & g.main), backward=True,
                                 within=g.main)
-    bad = g.main & ~can_end
+    bad = g.main & ~reached
     if not bad.any():
-        return Result(name, True, "error", "from every reachable marking the mission ends "
-                      "by itself (no external stop needed)", how + ", backward search")
+        return Result(name, True, "error", "from every reachable marking the mission can "
+                      "still end by itself (no external stop needed)",
+                      how + ", backward search")
     main = ~g.stop_arc
     loop = lasso(g.ss, g.main_arcs, bad, g.ss.src[main], g.ss.dst[main], g.main_arcs)
     if loop is None:  # every marking that cannot end is stuck: no-deadlock says where

@@ -5,27 +5,30 @@ verified today, runs for ever on a vehicle that always reaches) fails here, with
 and the answer that keeps it going; bounded by a race it is proved. On random missions the
 verdict holds exactly when duration's worst case is finite, with the explicit graph or
 without, and a loop's lasso replays on the net. The graph rule for plain nets
-(petri/verification/termination.py ``every_run_ends``) fails exactly on a reachable cycle.
+(petri/verification/termination.py ``terminates``) fails exactly on a reachable cycle.
 """
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from diagnostics import Source
 from mcl import ast, printer
-from mcl.analysis import termination
+from mcl.analysis import structural, termination
 from mcl.analysis.duration import analyse
+from mcl.analysis.verification import verify_mission
 from mcl.api import Compiled, compile_source
 from mcl.tasklib import load
 from petri.semantics import Semantics
-from petri.verification.graph import ReachabilityGraph
 from petri.verification.properties import Result, verify
-from petri.verification.termination import every_run_ends
+from petri.verification.termination import terminates as every_run_ends
 from tests.strategies import bodies
+from tests.support import cli, write
 
 GENERIC = load(["generic"])
 QUOTED = "MISSION m {\n  WHILE { Wait(1 s) } DO { GoTo(start, timeout = 2 min) }\n}\n"
@@ -36,11 +39,14 @@ def _compile(text: str, generic: bool = False) -> Compiled:
 
 
 def _explicit(compiled: Compiled) -> Result:
-    """``terminates`` as the explicit route would decide it, through verify's hook."""
-    def hook(g: ReachabilityGraph, how: str, cut: str) -> Result:
-        return termination.result(compiled.checked, how, g)
+    """``terminates`` as the explicit route decides it (what ``mclc --method explicit`` says)."""
+    verdict = verify_mission(compiled, "explicit", max_markings=200_000)
+    return next(r for r in verdict.results if r.name == "terminates")
 
-    verdict = verify(compiled.net, max_markings=200_000, termination=hook)
+
+def _structural(compiled: Compiled) -> Result:
+    """``terminates`` as the structural route decides it."""
+    verdict = structural.analyse(compiled.checked)
     return next(r for r in verdict.results if r.name == "terminates")
 
 
@@ -124,8 +130,10 @@ def test_terminates_holds_exactly_when_the_worst_case_is_finite(body: ast.Block)
     finite = math.isfinite(analyse(compiled.checked).worst)
     alone = termination.result(compiled.checked)
     explicit = _explicit(compiled)
-    assert alone.holds == explicit.holds == finite, text
-    assert not alone.undecided and not explicit.undecided
+    tree = _structural(compiled)
+    assert alone.holds == explicit.holds == tree.holds == finite, text
+    assert not alone.undecided and not explicit.undecided and not tree.undecided
+    assert tree.message == explicit.message, text  # one decision, one explanation
     if not finite:
         assert explicit.counterexample is not None or "WHILE" in explicit.message, text
         if explicit.counterexample is not None:
@@ -145,3 +153,33 @@ def test_the_graph_rule_fails_exactly_on_a_reachable_cycle(body: ast.Block) -> N
     if not r.holds:
         assert r.cycle and "graph rule" in r.method
         _replays(compiled, r)
+
+
+# -- through a real mclc ------------------------------------------------------------------
+QUOTED_FILE = ("PARAM start = (0, 0, 1, 0 deg);\n"
+               "MISSION m { WHILE { Wait(1 s) } DO { GoTo(start, timeout = 2 min) } }\n")
+
+
+@pytest.mark.parametrize("method", ["auto", "explicit", "structural"])
+def test_mclc_fails_the_quoted_loop_on_terminates_with_its_while(tmp_path: Path,
+                                                                  method: str) -> None:
+    proc = cli("mclc", str(write(tmp_path, QUOTED_FILE)), "--method", method)
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    assert ("[FAIL] terminates: some run never ends: the WHILE at line 2 (`Wait(1 s)`) goes "
+            "round for as long as GoTo(start, timeout = 2 min) ends ok on GoTo.reached"
+            ) in proc.stdout
+    assert "[ok  ] can-end:" in proc.stdout  # the weaker property holds: it can always end
+    if method != "structural":  # the lasso: to the loop, then round through the WHILE
+        loop = proc.stdout.split("then round and round for ever:")[1]
+        assert "WHILE { Wait(1 s) }: DO ended ok → again" in loop
+        assert "GoTo(start, timeout = 2 min): GoTo.reached → ok on GoTo.reached" in loop
+
+
+def test_mclc_verifies_the_quoted_loop_raced_by_a_timeout(tmp_path: Path) -> None:
+    raced = QUOTED_FILE.replace("MISSION m { WHILE { Wait(1 s) } DO { GoTo(start, timeout = 2 "
+                                "min) } }", "MISSION m { PARALLEL { WHILE { Wait(1 s) } DO { "
+                                "GoTo(start, timeout = 2 min) } } OR { Timeout(10 min) } }")
+    assert raced != QUOTED_FILE
+    proc = cli("mclc", str(write(tmp_path, raced)))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "[ok  ] terminates: every run ends, whatever the vehicle answers" in proc.stdout
