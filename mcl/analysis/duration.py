@@ -125,6 +125,8 @@ class Durations:
     energy: Energy | None = None
     unset_timers: list[Step] = field(default_factory=list)
     loops: list[Step] = field(default_factory=list)  # every WHILE that can go round for ever
+    laps: dict[tuple[int, int], Path] = field(default_factory=dict)  # (line, col) of such a
+    # WHILE -> one round of it that comes back to its head (the worst one): what keeps it going
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {
@@ -165,7 +167,8 @@ def analyse(checked: Checked, mission: ast.Mission | None = None) -> Durations:
     nominal, notes = estimate(checked, mission.body)
     out = Durations(best.lo, worst.hi, {k: (e.lo, e.hi) for k, e in ends.items()},
                     worst.worst, best.best, sorted(a.bounds, key=lambda b: (b.line, b.col)),
-                    unbounded, nominal, notes, unset_timers=a.unset, loops=a.loops)
+                    unbounded, nominal, notes, unset_timers=a.unset, loops=a.loops,
+                    laps=a.laps)
     out.energy = worst_energy(checked, mission.body, a.worst_of, out.worst)
     return out
 
@@ -203,6 +206,7 @@ class _Analysis:
         self.memo: dict[int, Ends] = {}
         self.unset: list[Step] = []
         self.loops: list[Step] = []
+        self.laps: dict[tuple[int, int], Path] = {}
 
     def block(self, root: ast.Block) -> Ends:
         # children before parents, without recursion (deep missions are fine)
@@ -348,6 +352,7 @@ class _Analysis:
             loop = (Step(w.span.line, w.span.col, "WHILE " + _head(w.condition),
                          "can go round for ever (nothing bounds the loop)", INF),)
             self.loops.append(loop[0])
+            self.laps[(w.span.line, w.span.col)] = lap.worst
             if "fail" in c:
                 groups.append(("ok", End(c["fail"].lo, INF, c["fail"].best,
                                          lap.worst + loop)))

@@ -1,5 +1,6 @@
-"""Which endings each block of a mission can reach: termination and Zeno cycles, decided on
-the syntax tree (the structural route's part 2, mcl/analysis/structural.py).
+"""Which endings each block of a mission can reach: ``can-end`` and Zeno cycles, decided on
+the syntax tree (the structural route's part 2, mcl/analysis/structural.py; ``terminates``,
+that every run ends, is decided from the proved worst case: mcl/analysis/termination.py).
 
 For each block, which endings (ok, fail) it can reach from its start, which from each state it
 can be in, and which in zero time (immediate tasks, 0 s timers; a task that waits for an event
@@ -211,15 +212,15 @@ def while_exit(cond: Cap, body: Cap) -> Cap:
 
 def results(out: Outcomes, body: ast.Block, reach: set[int], method: str
             ) -> list[Result]:
-    """The properties ``terminates`` and ``no-zeno`` of the mission ``body``; ``reach``: the
+    """The properties ``can-end`` and ``no-zeno`` of the mission ``body``; ``reach``: the
     blocks that can start (:meth:`Outcomes.reachable`)."""
     found: list[Result] = []
     if NONE in out.states(body):
-        found.append(Result("terminates", False, "error", cannot_end(out, body, reach),
+        found.append(Result("can-end", False, "error", cannot_end(out, body, reach),
                             method))
     else:
-        found.append(Result("terminates", True, "error", "from every reachable marking the "
-                            "mission can end without an external stop", method))
+        found.append(Result("can-end", True, "error", "from every reachable marking the "
+                            "mission can still end without an external stop", method))
     looping = zeno(out, body, reach, "must")
     if looping is not None:
         found.append(Result("no-zeno", False, "error", zeno_text(looping), method))

@@ -17,8 +17,9 @@ with the begin/abort -> ok/fail/aborted interface (docs/DESIGN.md §5). So this 
    no-deadlock and stop-safe for the whole mission (given that mcl/analysis/latches.py's data
    flow, which prunes the latch transitions the compiler makes, over-approximates: the
    explicit route checks that on random missions) — this module;
-2. decides termination and Zeno behaviour exactly, by an outcome analysis on the syntax tree
-   (mcl/analysis/outcomes.py);
+2. decides ``can-end`` and Zeno behaviour exactly, by an outcome analysis on the syntax tree
+   (mcl/analysis/outcomes.py), and ``terminates`` (every run ends) from the proved worst-case
+   duration (mcl/analysis/termination.py, the same decision as the explicit route's);
 3. decides the behaviour properties on the syntax tree, over-approximating: a violation it
    reports may be a false alarm, but it misses none (mcl/analysis/clashes.py).
 
@@ -36,7 +37,7 @@ from petri.net import Net
 from petri.verification.properties import Result, Verdict, actions_match, undecided, verify
 
 from mcl import ast
-from mcl.analysis import clashes, outcomes
+from mcl.analysis import clashes, outcomes, termination
 from mcl.api import compile_source
 from mcl.checker import Checked
 from mcl.compiler import compile_mission
@@ -135,7 +136,9 @@ def _generic_mission(kind: str, arity: int, variant: str) -> str:
 def template_check(kind: str, arity: int) -> tuple[bool, int, str]:
     """Verify one template with generic children (three variants); (ok, markings, detail).
     Every error-level property the explicit route checks must hold, stop-safe included (the
-    generic children can always fail, so loops can end)."""
+    generic children can always fail, so loops can end), but ``terminates``: a generic child
+    may end ok for ever, so a WHILE template has a loop; the mission's own timeouts decide
+    whether it ends (mcl/analysis/termination.py)."""
     library = load(["generic"])
     markings = 0
     for variant in ("generic", "at-once", "latch"):
@@ -144,7 +147,7 @@ def template_check(kind: str, arity: int) -> tuple[bool, int, str]:
         verdict = verify(net)
         markings += verdict.markings
         bad = [f"{r.name} {r.status}" for r in verdict.results
-               if not r.holds and r.severity == "error"]
+               if not r.holds and r.severity == "error" and r.name != "terminates"]
         if not any(r.name == "stop-safe" for r in verdict.results):
             bad.append("stop-safe not checked by the explicit route")
         if bad:
@@ -165,6 +168,9 @@ def analyse(checked: Checked, net: Net | None = None, note: str = "") -> Verdict
     verdict.results += by_construction(body, suffix)
     out = outcomes.Outcomes(checked)
     reach = out.reachable(body)
+    ends = termination.result(checked)  # every run ends: decided from the worst case
+    ends.method += suffix
+    verdict.results.append(ends)
     verdict.results += outcomes.results(out, body, reach, outcomes.METHOD + suffix)
     verdict.results += clashes.results(checked, out, body, reach, clashes.METHOD + suffix)
     verdict.results.append(actions_match(net))

@@ -22,9 +22,10 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from petri.net import Net
+from petri.verification.graph import ReachabilityGraph
 from petri.verification.properties import Result, Verdict, actions_match, undecided, verify
 
-from mcl.analysis import structural
+from mcl.analysis import structural, termination
 
 if TYPE_CHECKING:
     from mcl.api import Compiled
@@ -70,6 +71,11 @@ def verify_mission(compiled: Compiled, method: str = "auto", max_markings: int =
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}: one of {', '.join(METHODS)}")
     net = compiled.net
+    checked = compiled.checked
+
+    def terminates(g: ReachabilityGraph, how: str, cut: str) -> Result:
+        return termination.result(checked, how, g)  # the worst case decides, cut or not
+
     if method == "structural":
         return structural.analyse(compiled.checked, net)
     limit = marking_limit(net, max_markings, max_bytes)
@@ -77,7 +83,8 @@ def verify_mission(compiled: Compiled, method: str = "auto", max_markings: int =
         if limit < 1:
             return _too_big(net, max_bytes)
         try:
-            return verify(net, max_markings=limit, keep_graph=keep_graph)
+            return verify(net, max_markings=limit, keep_graph=keep_graph,
+                          termination=terminates)
         except MemoryError:  # the estimate fell short: say so, never crash
             return _too_big(net, max_bytes, "ran out of memory")
     estimate = structural.mission_estimate(compiled.checked)
@@ -87,7 +94,8 @@ def verify_mission(compiled: Compiled, method: str = "auto", max_markings: int =
                f"budget of {limit:,} markings ({budget})")
         return structural.analyse(compiled.checked, net, note=why)
     try:
-        explicit = verify(net, max_markings=limit, keep_graph=keep_graph)
+        explicit = verify(net, max_markings=limit, keep_graph=keep_graph,
+                          termination=terminates)
     except MemoryError:  # the estimate fell short: the structural route instead
         return structural.analyse(compiled.checked, net, note=f"auto: the explicit route "
                                   f"ran out of memory ({budget}): structural instead")
@@ -126,7 +134,8 @@ def _too_big(net: Net, max_bytes: int, what: str = "leaves no room for markings"
     why = (f"undecided: the net ({len(net.places):,} places, {len(net.transitions):,} "
            f"transitions) {what} in {max_bytes / 2**20:,.0f} MiB")
     verdict = Verdict(net, 0, 0, 0.0)
-    for name in ("one-safe", "proper-completion", "no-deadlock", "terminates", "no-zeno",
+    for name in ("one-safe", "proper-completion", "no-deadlock", "terminates", "can-end",
+                 "no-zeno",
                  "behaviours-off-at-end", "behaviour-single-owner", "dof-exclusive",
                  "no-disable-while-held", "stop-safe"):
         verdict.results.append(undecided(name, why, "explicit (not run)"))

@@ -12,8 +12,10 @@ one-safe                 no reachable marking puts two tokens in one place
 proper-completion        when the mission's ok or fail place is marked, nothing else is
                          (but the latched behaviours' state places)
 no-deadlock              every marking without successors is a final marking
-terminates               main model: from every reachable marking an end can be reached
-                         (a violation is a lasso: prefix, then a loop that cannot end)
+terminates               every run ends: for a plain net, the main model has no reachable
+                         cycle (a violation is a lasso: prefix, then the loop); a mission
+                         decides it from its proved worst case (the ``terminates`` hook)
+can-end                  main model: from every reachable marking an end can still be reached
 no-zeno                  no cycle of immediate transitions and 0 s timers (a lasso)
 behaviours-off-at-end    at every final marking no behaviour is still on
 behaviour-single-owner   no behaviour driving a degree of freedom is held by two places at once
@@ -50,7 +52,8 @@ from petri.verification.behaviour_checks import (actions_match, behaviours_on, d
                                                  some_group)
 from petri.verification.graph import ReachabilityGraph, Rows
 from petri.verification.reachability import StateSpace, explore, shortest_path
-from petri.verification.termination import no_zeno, stop_safe, terminates
+from petri.verification.termination import (Termination, can_end, no_zeno, stop_safe,
+                                            terminates)
 from petri.verification.timed import TimedSpace, explore_timed
 from petri.verification.verdict import Result, Verdict, nearest, step, undecided
 
@@ -62,11 +65,14 @@ __all__ = ["TIMED_MAX_CLASSES", "Result", "Verdict", "actions_match", "step", "u
 TIMED_MAX_CLASSES = 50_000
 
 
-def verify(net: Net, max_markings: int = 5_000_000, keep_graph: bool = False) -> Verdict:
+def verify(net: Net, max_markings: int = 5_000_000, keep_graph: bool = False,
+           termination: Termination = terminates) -> Verdict:
     """Explore the net's reachability graph (with the external stop) and decide every
     property of docs/SEMANTICS.md on it; a property a cut exploration cannot decide is
     undecided. With ``keep_graph`` the verdict keeps the graph (``Verdict.space``); without,
-    it is not kept (a run that verifies first does not hold it in memory while it runs)."""
+    it is not kept (a run that verifies first does not hold it in memory while it runs).
+    ``termination`` decides ``terminates`` on the graph (default: the graph rule; a mission
+    passes its own, from its proved worst case)."""
     start = time.perf_counter()
     ss = explore(net, max_markings=max_markings)
     check = _Exploration(net, ss, Semantics(net))
@@ -81,7 +87,8 @@ def verify(net: Net, max_markings: int = 5_000_000, keep_graph: bool = False) ->
                                 "place", "the mission can end with tokens left behind"))
     results.append(check.safety("no-deadlock", g.deadlocks(), "no reachable marking is stuck "
                                 "before the mission ends", "the mission can get stuck"))
-    results.append(terminates(g, how, cut))
+    results.append(termination(g, how, cut))
+    results.append(can_end(g, how, cut))
     results.append(no_zeno(g, how, cut))
     results += _behaviour_properties(check)
     results.append(_disable_while_held(check))

@@ -1,11 +1,21 @@
-"""The properties about ending: ``terminates``, ``no-zeno`` and ``stop-safe``.
+"""The properties about ending: ``terminates``, ``can-end``, ``no-zeno`` and ``stop-safe``.
 
-A violation of the first two is a loop: a *lasso*, the shortest firing sequence to a marking
-on the loop, then the loop (:func:`petri.verification.graph.lasso`). ``terminates`` is decided
-on the main model (no external stop); ``stop-safe`` on the stop region, reached by one.
+``terminates``: every run ends — no run of the main model (no external stop) can go on for
+ever. For a plain net it is the *graph rule* (:func:`terminates`): a reachable cycle of the
+main model is a run that some answers of the environment keep going for ever. A mission
+compiled from MCL decides it instead from its proved worst-case duration
+(mcl/analysis/termination.py, passed to ``verify`` as its ``terminates``), since its timers
+bound loops the untimed graph has; :func:`lasso_through` then shows the loop.
+``can-end`` is the weaker property: from every reachable marking an end can still be reached.
+
+A violation of ``terminates`` and ``no-zeno`` is a loop: a *lasso*, the shortest firing
+sequence to a marking on the loop, then the loop (:func:`petri.verification.graph.lasso`).
+``stop-safe`` is decided on the stop region, reached by an external stop.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
@@ -16,17 +26,41 @@ from petri.verification.reachability import shortest_path
 from petri.verification.verdict import Result, nearest, undecided
 
 
+Termination = Callable[[ReachabilityGraph, str, str], Result]
+"""How a caller decides ``terminates`` on the explored graph (its ``how`` and ``cut``)."""
+
+
 def terminates(g: ReachabilityGraph, how: str, cut: str) -> Result:
-    """Main model: from every reachable marking an end can be reached."""
+    """The graph rule: every run ends when the main model has no reachable cycle (a loop
+    the environment's answers can keep going for ever: its lasso is the counterexample)."""
     name = "terminates"
+    main = ~g.stop_arc
+    loop = lasso(g.ss, g.main_arcs, g.main, g.ss.src[main], g.ss.dst[main], g.main_arcs)
+    if loop is not None:
+        at, prefix, cycle = loop
+        return Result(name, False, "error", "some run can go on for ever: "
+                      + why_endless(g.net, cycle, can_end=False), how + ", graph rule: a "
+                      "reachable cycle is a run that can go on for ever", prefix, at,
+                      cycle=cycle)
     if cut:
         return undecided(name, cut, how)
-    can_end = g.main_arcs.reach(np.flatnonzero(g.terminal & g.main), backward=True,
+    return Result(name, True, "error", "every run ends: the main model has no reachable "
+                  "cycle", how + ", graph rule: no reachable cycle, so no run goes on for ever")
+
+
+def can_end(g: ReachabilityGraph, how: str, cut: str) -> Result:
+    """Main model: from every reachable marking an end can still be reached (weaker than
+    ``terminates``: a loop that can be left holds it)."""
+    name = "can-end"
+    if cut:
+        return undecided(name, cut, how)
+    reached = g.main_arcs.reach(np.flatnonzero(g.terminal & g.main), backward=True,
                                 within=g.main)
-    bad = g.main & ~can_end
+    bad = g.main & ~reached
     if not bad.any():
-        return Result(name, True, "error", "from every reachable marking the mission ends "
-                      "by itself (no external stop needed)", how + ", backward search")
+        return Result(name, True, "error", "from every reachable marking the mission can "
+                      "still end by itself (no external stop needed)",
+                      how + ", backward search")
     main = ~g.stop_arc
     loop = lasso(g.ss, g.main_arcs, bad, g.ss.src[main], g.ss.dst[main], g.main_arcs)
     if loop is None:  # every marking that cannot end is stuck: no-deadlock says where
@@ -38,16 +72,47 @@ def terminates(g: ReachabilityGraph, how: str, cut: str) -> Result:
                   cycle=cycle)
 
 
-def why_endless(net: Net, cycle: list[int]) -> str:
-    """Why a loop of the main model never ends, in the mission's words."""
+def why_endless(net: Net, cycle: list[int], can_end: bool = True) -> str:
+    """Why a loop of the main model goes round for ever, in the mission's words
+    (``can_end``: the loop cannot be left at all, as ``can-end`` finds it)."""
     loops = [o for o in (net.transitions[t].origin for t in cycle)
              if o is not None and o.kind == "WHILE"]
     if loops:
         o = loops[0]
         cond = o.text.removeprefix("WHILE").strip().removeprefix("{").removesuffix("}")
+        if not can_end:
+            return f"the WHILE at line {o.line} (`{cond.strip()}`) can go round for ever"
         return (f"the WHILE at line {o.line} cannot end: its condition `{cond.strip()}` can "
                 "never fail and its body never fails, so it goes round for ever")
+    if not can_end:
+        return "a loop of the net can go round for ever"
     return "the mission can go round for ever without ending (no external stop)"
+
+
+def lasso_through(g: ReachabilityGraph, transitions: list[int]
+                  ) -> tuple[int, list[int], list[int]] | None:
+    """A loop of the main model through a firing of one of ``transitions``: the marking it
+    starts from, the shortest firing sequence to it, and the shortest loop back (the firing
+    first); None when no such firing lies on a cycle (or none of the 64 nearest)."""
+    ss = g.ss
+    wanted = np.zeros(len(g.net.transitions), bool)
+    wanted[transitions] = True
+    arcs = np.flatnonzero(wanted[ss.transition] & ~g.stop_arc & g.main[ss.src])
+    arcs = arcs[np.argsort(ss.src[arcs], kind="stable")]  # BFS order: the nearest first
+    goal = np.zeros(g.n, bool)
+    for arc in arcs[:64]:
+        at, after = int(ss.src[arc]), int(ss.dst[arc])
+        goal[:] = False
+        goal[at] = True
+        back: list[int] = []
+        if after != at:
+            back, _ = g.main_arcs.path(after, goal, within=g.main)
+            if not back:
+                continue
+        prefix, _ = g.main_arcs.path(0, goal) if at != 0 else ([], at)
+        return (at, [int(ss.transition[a]) for a in prefix],
+                [int(ss.transition[arc])] + [int(ss.transition[a]) for a in back])
+    return None
 
 
 def no_zeno(g: ReachabilityGraph, how: str, cut: str) -> Result:

@@ -154,9 +154,10 @@ def test_sigterm_on_a_scripted_vehicle_aborts_and_switches_off(tmp_path: Path) -
 
 # -- the time limit, a stuck mission, a closed standard output --------------------------------
 def test_max_time_aborts_through_the_net_at_the_limit(tmp_path: Path) -> None:
+    # a loop nothing bounds: not verified (terminates fails, issue 21), run with --no-verify
     mission = write(tmp_path, "MISSION { StartLogs(enable); WHILE { GoTo((0, 0, 1, 0 deg)) } "
                               "DO { Wait(1 s) }; StartLogs(disable) }")
-    with mcl_run(tmp_path, str(mission), "--max-time", "9.5") as (proc, log):
+    with mcl_run(tmp_path, str(mission), "--max-time", "9.5", "--no-verify") as (proc, log):
         code = finish(proc, log)
     assert code == 4, output(log)
     last = check_safe_end(log, "time limit", 4)
@@ -175,9 +176,11 @@ def test_the_limit_does_not_overshoot_to_the_next_timer(tmp_path: Path) -> None:
 
 
 def test_a_stuck_mission_is_aborted_with_its_latch_off(tmp_path: Path) -> None:
+    # a watcher with no timeout: not verified (terminates fails, issue 21), run with --no-verify
     mission = write(tmp_path, "MISSION { Alarms() }")
     script = write(tmp_path, "", "empty.toml")
-    with mcl_run(tmp_path, str(mission), "--vehicle", f"script:{script}") as (proc, log):
+    with mcl_run(tmp_path, str(mission), "--vehicle", f"script:{script}",
+                 "--no-verify") as (proc, log):
         code = finish(proc, log)
     assert code == 4, output(log)
     last = check_safe_end(log, "stuck", 4)
@@ -291,8 +294,10 @@ def test_the_pipeline_mission_runs_on_a_vehicle_that_declares_it(tmp_path: Path)
     with mcl_run(tmp_path, PIPELINE, "--vehicle", f"script:{script}", "--max-time", "600",
                  "--no-verify") as (proc, log):
         code = finish(proc, log)
-    assert code == 4, output(log)  # accepted; stuck once the pipe follower is on (no answer)
-    last = check_safe_end(log, "stuck", 4)
+    # accepted; the pipe follower never answers, and since issue 21 a Timeout(followFor) of
+    # 20 min races the follow loop (so that every run ends): not stuck, the 600 s limit ends it
+    assert code == 4, output(log)
+    last = check_safe_end(log, "time limit", 4)
     assert "KeepAltitude" in last["switched_off"], last
 
 

@@ -17,7 +17,7 @@ import pytest
 from mcl import ast, parser, printer
 from mcl.api import compile_file
 from diagnostics import Source
-from petri.verification.properties import verify
+from mcl.analysis.verification import verify_mission
 from tests.support import MISSIONS, cli
 
 GOLDEN = Path(__file__).parents[1] / "golden"
@@ -27,7 +27,7 @@ FILES = sorted(MISSIONS.glob("*.mcl"))
 def _summary(path: Path) -> dict[str, object]:
     compiled = compile_file(str(path))
     net = compiled.net
-    verdict = verify(net)
+    verdict = verify_mission(compiled, "explicit")
     return {
         "mission": compiled.mission.name,
         "calls": [f"{c.name}@{c.span.line}:{c.span.col}" for c in ast.calls(compiled.mission.body)],

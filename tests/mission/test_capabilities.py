@@ -27,7 +27,7 @@ def test_a_missing_behaviour_is_named_at_each_call() -> None:
         check_capabilities(compile_file(PIPELINE, require_values=True),
                            capabilities.ictineu("ictineu"))
     where = [(d.span.line, d.span.col) for d in refused.value.diagnostics if d.span]
-    assert where[0] == (25, 13)  # KeepAltitude(enable, altitude);
+    assert where[0] == (26, 13)  # KeepAltitude(enable, altitude); (line 25 before followFor)
     text = refused.value.format()
     assert "KeepAltitude needs behaviour KeepAltitude, which vehicle ictineu does not have" \
         in text

@@ -55,7 +55,7 @@ FOREVER = "MISSION {\n    WHILE { Wait(1 s) } DO { Wait(10 s) }\n}\n"
 
 def test_a_loop_whose_condition_never_fails_is_refused_with_a_lasso_that_replays() -> None:
     net = compile_text(FOREVER)
-    r = results(net)["terminates"]
+    r = results(net)["can-end"]
     assert not r.holds and not r.undecided
     assert "the WHILE at line 2 cannot end" in r.message
     assert "`Wait(1 s)` can never fail" in r.message
@@ -75,21 +75,21 @@ def test_mclc_refuses_the_forever_loop_exit_1(tmp_path: Path) -> None:
     proc = subprocess.run(MCLC + [str(path), "--method", "explicit"], capture_output=True,
                           text=True, timeout=300)
     assert proc.returncode == 1, proc.stdout + proc.stderr
-    assert "[FAIL] terminates: the WHILE at line 2 cannot end" in proc.stdout
+    assert "[FAIL] can-end: the WHILE at line 2 cannot end" in proc.stdout
     assert "then round and round for ever:" in proc.stdout
 
 
-def test_a_loop_that_can_end_terminates() -> None:
+def test_a_loop_that_can_end_can_end() -> None:
     text = ("MISSION { WHILE { PARALLEL { Wait(1 s) } OR { KeepHeadDistException() } } "
             "DO { Wait(10 s) } }")
-    assert results(compile_text(text))["terminates"].holds
+    assert results(compile_text(text))["can-end"].holds
 
 
-def test_the_shipped_missions_terminate_by_themselves() -> None:
+def test_the_shipped_missions_can_end_by_themselves() -> None:
     for path in sorted(Path("missions").glob("*.mcl")):
         compiled = compile_source(Source(str(path), path.read_text("utf-8")))
         r = results(compiled.net)
-        assert r["terminates"].holds, (path, r["terminates"].message)
+        assert r["can-end"].holds, (path, r["can-end"].message)
         assert r["stop-safe"].holds, (path, r["stop-safe"].message)
 
 
@@ -165,7 +165,7 @@ def test_mclc_exits_4_when_undecided(tmp_path: Path) -> None:
     proc = subprocess.run(MCLC + [str(path), "--method", "explicit", "--max-markings", "2000"],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 4, proc.stdout + proc.stderr
-    assert "UNDECIDED" in proc.stdout and "[????] terminates" in proc.stdout
+    assert "UNDECIDED" in proc.stdout and "[????] can-end" in proc.stdout
     assert "[FAIL]" not in proc.stdout
 
 

@@ -380,13 +380,31 @@ def test_mclc_deadline_fails_with_the_critical_path() -> None:
     assert "holds for every run" in ok.stdout
 
 
-def test_mclc_names_what_leaves_a_mission_unbounded() -> None:
-    proc = cli("mclc", str(MISSIONS / "pipeline_inspection.mcl"), "--no-verify",
-               "--deadline", "1h")
+# the follow loop of missions/pipeline_inspection.mcl before a Timeout raced it (issue 21)
+UNBOUNDED_FOLLOW = """PARAM speed = 0.5;
+PARAM length = 45 m;
+PARAM width = 6 m;
+MISSION follow {
+    WHILE {
+        IF { FollowPipe(speed, length) } THEN { Timeout(0 s) } ELSE { Wait(0 s) }
+    } DO {
+        SearchLine(width)
+    }
+}
+"""
+
+
+def test_mclc_names_what_leaves_a_mission_unbounded(tmp_path: Path) -> None:
+    proc = cli("mclc", str(write(tmp_path, UNBOUNDED_FOLLOW)), "--no-verify",
+               "--tasks", str(MISSIONS / "seabed.tasks"), "--deadline", "1h")
     assert proc.returncode == 1, proc.stderr
     assert "some run can last for ever" in proc.stdout
-    assert "line 30: FollowPipe(speed, length) waits for FollowPipeline.lost" in proc.stdout
-    assert "line 29: WHILE" in proc.stdout  # the loop is named too
+    assert "line 6: FollowPipe(speed, length) waits for FollowPipeline.lost" in proc.stdout
+    assert "line 5: WHILE" in proc.stdout  # the loop is named too
+    raced = cli("mclc", str(MISSIONS / "pipeline_inspection.mcl"), "--no-verify",
+                "--deadline", "1h")  # the shipped mission races its loop with a Timeout
+    assert raced.returncode == 0, raced.stdout + raced.stderr
+    assert "holds for every run" in raced.stdout
 
 
 def test_mclc_json_junit_and_sarif_carry_the_bounds() -> None:

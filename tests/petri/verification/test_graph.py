@@ -10,8 +10,10 @@ reference, on the same graph (:func:`petri.verification.reachability.as_digraph`
   ``ancestors``; the markings on a cycle and the lasso against
   ``strongly_connected_components``;
 * random small missions, verified: each counterexample is as short as networkx's shortest path
-  to the marking it names, ``terminates`` fails exactly when networkx finds a marking of the
-  main model that reaches no end, and its loop lies in a strongly connected component.
+  to the marking it names, ``can-end`` fails exactly when networkx finds a marking of the
+  main model that reaches no end, and its loop lies in a strongly connected component;
+  ``terminates`` (the graph rule of a plain net) fails exactly when the main model has a
+  cycle, with a lasso as short as networkx's.
 """
 
 from __future__ import annotations
@@ -209,15 +211,25 @@ def test_counterexamples_are_networkx_shortest_paths(mission: ast.Mission) -> No
     distance = nx.single_source_shortest_path_length(graph, 0)
     results = {r.name: r for r in verdict.results}
     for r in verdict.results:  # a shortest firing sequence from the start, in the whole graph
-        # (terminates: in the main model, below; a firing's own property and a timed
-        # re-check's sequence are not searched in this graph)
+        # (can-end, terminates: in the main model, below; a firing's own property and a
+        # timed re-check's sequence are not searched in this graph)
         if r.counterexample is None or "timed model" in r.method or r.name in (
-                "terminates", "no-disable-while-held"):
+                "can-end", "terminates", "no-disable-while-held"):
             continue
         assert r.witness is not None
         assert len(r.counterexample) == distance[r.witness], r.name
     main, final, stuck = main_model(net, verdict)
-    terminates = results["terminates"]
+    looping = cyclic_nodes(main)  # the graph rule: a reachable cycle is a run for ever
+    every_run_ends = results["terminates"]
+    assert every_run_ends.holds == (not looping)
+    if looping:
+        assert every_run_ends.witness in looping and every_run_ends.cycle is not None
+        assert every_run_ends.counterexample is not None
+        assert len(every_run_ends.counterexample) == nx.shortest_path_length(
+            main, 0, every_run_ends.witness)
+        assert len(every_run_ends.cycle) == shortest_cycle(main.subgraph(looping),
+                                                           every_run_ends.witness)
+    terminates = results["can-end"]
     assert terminates.holds == (not stuck)
     if stuck:
         loops = cyclic_nodes(main.subgraph(stuck))
