@@ -127,6 +127,7 @@ class Durations:
     loops: list[Step] = field(default_factory=list)  # every WHILE that can go round for ever
     laps: dict[tuple[int, int], Path] = field(default_factory=dict)  # (line, col) of such a
     # WHILE -> one round of it that comes back to its head (the worst one): what keeps it going
+    steps: int = 0  # the work done: blocks analysed plus the steps of every path they keep
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {
@@ -168,7 +169,7 @@ def analyse(checked: Checked, mission: ast.Mission | None = None) -> Durations:
     out = Durations(best.lo, worst.hi, {k: (e.lo, e.hi) for k, e in ends.items()},
                     worst.worst, best.best, sorted(a.bounds, key=lambda b: (b.line, b.col)),
                     unbounded, nominal, notes, unset_timers=a.unset, loops=a.loops,
-                    laps=a.laps)
+                    laps=a.laps, steps=a.steps)
     out.energy = worst_energy(checked, mission.body, a.worst_of, out.worst)
     return out
 
@@ -207,6 +208,7 @@ class _Analysis:
         self.unset: list[Step] = []
         self.loops: list[Step] = []
         self.laps: dict[tuple[int, int], Path] = {}
+        self.steps = 0  # blocks analysed plus the steps of the paths they keep
 
     def block(self, root: ast.Block) -> Ends:
         # children before parents, without recursion (deep missions are fine)
@@ -214,6 +216,7 @@ class _Analysis:
             if id(b) not in self.memo:
                 ends = self._one(b)
                 self.memo[id(b)] = ends
+                self.steps += 1 + sum(len(e.best) + len(e.worst) for e in ends.values())
                 self.bounds.append(BlockBound(type(b).__name__, b.span.line, b.span.col,
                                               _head(b), {k: (e.lo, e.hi)
                                                          for k, e in ends.items()}))

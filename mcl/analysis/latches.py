@@ -47,6 +47,10 @@ class Flow:
     _sites: dict[int, frozenset[tuple[str, str]]] = field(default_factory=dict, repr=False)
     _created: dict[int, State] = field(default_factory=dict, repr=False)
     _writes: dict[int, frozenset[str]] = field(default_factory=dict, repr=False)
+    # each WHILE's head states so far, per rely: a loop met again (an outer loop's next
+    # round) starts from where it converged, so nested loops cost rounds added, not multiplied
+    _heads: dict[tuple[int, State], State] = field(default_factory=dict, repr=False)
+    steps: int = 0  # blocks flowed through: the work done
 
     def latch_of(self, call: ast.Call) -> tuple[str | None, bool]:
         form = self.checked.resolved(call).form
@@ -122,6 +126,7 @@ class Flow:
              ) -> tuple[State, State]:
         """(states at the block's normal end, states at any moment during it). ``rely``:
         states that blocks running concurrently may create at any moment."""
+        self.steps += 1
         end, during = self._flow(block, s | rely, rely)
         if not isinstance(block, ast.Call):  # a task has no cleanup of its own
             key = id(block)
@@ -179,8 +184,17 @@ class Flow:
     def _while(self, c: ast.Block, body: ast.Block, s: State, rely: State
                ) -> tuple[State, State]:
         """A WHILE: rounds until the states at the head no longer grow; it ends where its
-        condition fails or its body fails (as far as :meth:`can_end` allows)."""
-        head, end, during = s, frozenset[tuple[str, str]](), s
+        condition fails or its body fails (as far as :meth:`can_end` allows).
+
+        Met again with states that include those of an earlier visit (an enclosing loop's
+        next round: its states only grow), the rounds start from the head that visit
+        converged to, which the least fixpoint from the new states includes: the result is
+        the same (from other states, a superset: still sound). So each WHILE goes round at
+        most once per visit plus once per state its head gains, however deeply loops nest
+        (starting afresh, each level of nesting doubled the work)."""
+        key = (id(c), rely)
+        head = s | self._heads.get(key, frozenset())
+        end, during = frozenset[tuple[str, str]](), s
         can_c, can_b = self.can_end(c), self.can_end(body)
         for _ in range(1000):  # a finite lattice: this converges in a few rounds
             ec, dc = self.flow(c, head, rely)
@@ -191,6 +205,7 @@ class Flow:
             if eb <= head:
                 break
             head = head | eb
+        self._heads[key] = head
         return end, during
 
     def _concurrent(self, blocks: list[ast.Block], s: State, rely: State

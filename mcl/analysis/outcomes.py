@@ -39,6 +39,7 @@ class Outcomes:
         self.checked = checked
         self._start: dict[tuple[int, str], Cap] = {}
         self._states: dict[int, frozenset[Cap]] = {}
+        self.steps = 0  # blocks analysed (each once per question): the work done
 
     # endings a task call can reach
     def call(self, call: ast.Call, zero: str) -> Cap:
@@ -67,6 +68,7 @@ class Outcomes:
         return self._start[(id(block), zero)]
 
     def _start_of(self, b: ast.Block, zero: str) -> Cap:
+        self.steps += 1
         s = self._start
         match b:
             case ast.Call():
@@ -108,6 +110,7 @@ class Outcomes:
         return self._states[id(block)]
 
     def _states_of(self, b: ast.Block) -> frozenset[Cap]:
+        self.steps += 1
         st, out = self._states, set[Cap]()
 
         def o(x: ast.Block) -> Cap:
