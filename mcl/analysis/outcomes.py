@@ -1,4 +1,5 @@
-"""Which endings each block of a mission can reach: ``can-end`` and Zeno cycles, decided on
+"""Which endings each block of a mission can reach: ``can-end``, Zeno cycles and instant loops
+(``instant-loop``: a loop that spins at one instant when the vehicle answers at once), decided on
 the syntax tree (the structural route's part 2, mcl/analysis/structural.py; ``terminates``,
 that every run ends, is decided from the proved worst case: mcl/analysis/termination.py).
 
@@ -13,6 +14,7 @@ awaited event and timer may happen, branches interleave freely, and latches neve
 from __future__ import annotations
 
 from petri.verification.properties import Result, undecided
+from petri.verification.termination import INSTANT_OK, instant_text
 
 from mcl import ast, printer
 from mcl.checker import Checked
@@ -30,7 +32,8 @@ METHOD = ("outcome analysis of the syntax tree (which endings each block can rea
 class Outcomes:
     """Which endings each block can reach: from its start (:meth:`start`), in zero time
     (``zero`` "must": only immediate tasks and timers of 0 s; "may": also timers whose value
-    is a mission parameter without a value), and from every state it can be in
+    is a mission parameter without a value; "instant": also awaited events, which a vehicle
+    may answer at once — only a timer of a positive delay takes time), and from every state it can be in
     (:meth:`states`: the set of the endings reachable from each reachable state; a state from
     which none is reachable is ``NONE``). Exact in the untimed model: every awaited event and
     timer may happen, branches interleave freely, and latches never block a task."""
@@ -48,12 +51,13 @@ class Outcomes:
         if form.immediate:
             return ONLY_OK
         out: set[str] = set()
-        if not zero:
+        if zero in ("", "instant"):  # "instant": the vehicle may answer at once
             out |= {OK} if form.ok else set()
             out |= {FAIL} if form.fail else set()
         for timer in timers(self.checked, call):  # the rule: mcl/timers.py
             seconds = timer.seconds
-            if zero == "" or seconds == 0 or (zero == "may" and isinstance(seconds, str)):
+            if zero == "" or seconds == 0 or (zero in ("may", "instant")
+                                              and isinstance(seconds, str)):
                 out.add(timer.status)
         return frozenset(out)
 
@@ -233,7 +237,22 @@ def results(out: Outcomes, body: ast.Block, reach: set[int], method: str
     else:
         found.append(Result("no-zeno", True, "error", "no cycle can go round without time "
                             "passing", method))
+    found.append(instant_result(out, body, reach, method))
     return found
+
+
+def instant_result(out: Outcomes, body: ast.Block, reach: set[int], method: str) -> Result:
+    """``instant-loop`` (a warning): a reachable WHILE whose condition and body can both end
+    ok with no mission time passing when the vehicle answers every event at once."""
+    loop = zeno(out, body, reach, "instant")
+    if loop is None:
+        return Result("instant-loop", True, "warning", INSTANT_OK, method)
+    forms = [out.checked.resolved(b).form for b in ast.walk(loop.condition)
+             + ast.walk(loop.body) if isinstance(b, ast.Call) and id(b) in reach]
+    events = list(dict.fromkeys(e for f in forms for e in f.ok + f.fail))
+    return Result("instant-loop", False, "warning",
+                  instant_text(f"the WHILE at line {loop.span.line}", events, among=True),
+                  method)
 
 
 def shown(block: ast.Block) -> str:

@@ -139,6 +139,7 @@ def _too_big(net: Net, max_bytes: int, what: str = "leaves no room for markings"
                  "behaviours-off-at-end", "behaviour-single-owner", "dof-exclusive",
                  "no-disable-while-held", "stop-safe"):
         verdict.results.append(undecided(name, why, "explicit (not run)"))
+    verdict.results.append(undecided("instant-loop", why, "explicit (not run)", "warning"))
     verdict.results.append(actions_match(net))
     verdict.results.append(Result("no-dead-transitions", False, "warning", why,
                                   "explicit (not run)", undecided=True))

@@ -17,6 +17,8 @@ terminates               every run ends: for a plain net, the main model has no 
                          decides it from its proved worst case (the ``terminates`` hook)
 can-end                  main model: from every reachable marking an end can still be reached
 no-zeno                  no cycle of immediate transitions and 0 s timers (a lasso)
+instant-loop             no cycle without a timer of a positive delay: none spins at one
+                         instant when the vehicle answers at once (a warning)
 behaviours-off-at-end    at every final marking no behaviour is still on
 behaviour-single-owner   no behaviour driving a degree of freedom is held by two places at once
                          (watchers are shared: on while any holder is marked)
@@ -52,8 +54,8 @@ from petri.verification.behaviour_checks import (actions_match, behaviours_on, d
                                                  some_group)
 from petri.verification.graph import ReachabilityGraph, Rows
 from petri.verification.reachability import StateSpace, explore, shortest_path
-from petri.verification.termination import (Termination, can_end, no_zeno, stop_safe,
-                                            terminates)
+from petri.verification.termination import (Termination, can_end, instant_loop, no_zeno,
+                                            stop_safe, terminates)
 from petri.verification.timed import TimedSpace, explore_timed
 from petri.verification.verdict import Result, Verdict, nearest, step, undecided
 
@@ -90,6 +92,7 @@ def verify(net: Net, max_markings: int = 5_000_000, keep_graph: bool = False,
     results.append(termination(g, how, cut))
     results.append(can_end(g, how, cut))
     results.append(no_zeno(g, how, cut))
+    results.append(instant_loop(g, how, cut))
     results += _behaviour_properties(check)
     results.append(_disable_while_held(check))
     results.append(stop_safe(g, how, cut))

@@ -1,4 +1,5 @@
-"""The properties about ending: ``terminates``, ``can-end``, ``no-zeno`` and ``stop-safe``.
+"""The properties about ending: ``terminates``, ``can-end``, ``no-zeno``, ``instant-loop`` and
+``stop-safe``.
 
 ``terminates``: every run ends — no run of the main model (no external stop) can go on for
 ever. For a plain net it is the *graph rule* (:func:`terminates`): a reachable cycle of the
@@ -8,7 +9,13 @@ compiled from MCL decides it instead from its proved worst-case duration
 bound loops the untimed graph has; :func:`lasso_through` then shows the loop.
 ``can-end`` is the weaker property: from every reachable marking an end can still be reached.
 
-A violation of ``terminates`` and ``no-zeno`` is a loop: a *lasso*, the shortest firing
+``instant-loop`` (a warning) is the loop that goes round with no mission time passing when the
+vehicle answers at once: a cycle of the main model whose every firing may come at zero delay
+(immediate, an awaited event, a timer of 0 s or of a parameter without a value); only a timer
+of a positive delay makes a lap take time. The player bounds such a loop (it stops a mission
+past ``MAX_FIRINGS_PER_INSTANT`` firings at one instant), hence a warning, not an error.
+
+A violation of ``terminates``, ``no-zeno`` and ``instant-loop`` is a loop: a *lasso*, the shortest firing
 sequence to a marking on the loop, then the loop (:func:`petri.verification.graph.lasso`).
 ``stop-safe`` is decided on the stop region, reached by an external stop.
 """
@@ -20,6 +27,7 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
+from petri.execution.player import MAX_FIRINGS_PER_INSTANT
 from petri.net import Net
 from petri.verification.graph import Adjacency, ReachabilityGraph, lasso
 from petri.verification.reachability import shortest_path
@@ -138,6 +146,46 @@ def no_zeno(g: ReachabilityGraph, how: str, cut: str) -> Result:
     if cut:
         return undecided(name, cut, how)
     return Result(name, True, "error", "no loop can go round without time passing", how)
+
+
+def instant_loop(g: ReachabilityGraph, how: str, cut: str) -> Result:
+    """A loop of the main model every lap of which can complete with no mission time passing
+    when the vehicle answers at once (no timer of a positive delay on it)."""
+    name = "instant-loop"
+    net = g.net
+    timed = np.array([isinstance(t.timer, (int, float)) and float(t.timer) > 0
+                      for t in net.transitions], bool)
+    instant = (~timed[g.ss.transition] & ~g.stop_arc & g.main[g.ss.src]
+               if len(g.ss.transition) else np.zeros(0, bool))
+    loop = zero_lasso(g, instant) if instant.any() else None
+    if loop is not None:
+        at, prefix, cycle = loop
+        lines = [o.line for o in (net.transitions[t].origin for t in cycle)
+                 if o is not None and o.kind == "WHILE"]
+        events = list(dict.fromkeys(e for e in (net.transitions[t].event for t in cycle)
+                                    if e is not None))
+        return Result(name, False, "warning", instant_text(
+            f"the WHILE at line {lines[0]}" if lines else "a loop", events), how, prefix, at,
+            cycle=cycle)
+    if cut:
+        return undecided(name, cut, how, "warning")
+    return Result(name, True, "warning", INSTANT_OK, how)
+
+
+INSTANT_OK = ("every loop waits for a timer > 0 on each lap: none can go round at one "
+              "instant, however fast the vehicle answers")
+
+
+def instant_text(where: str, events: list[str], among: bool = False) -> str:
+    """Why a loop can spin at one mission instant: ``where`` it is, the ``events`` that
+    close a lap (none: immediate tasks and 0 s timers alone, which no-zeno reports; with
+    ``among``, the events its tasks wait for, some of which close a lap)."""
+    which = ("events among " if among else "") + ", ".join(events)
+    closed = (f"a lap can be closed by {which} alone, which a vehicle may answer at once"
+              if events else "a lap needs only instant tasks and 0 s timers")
+    return (f"{where} can go round with no mission time passing: {closed} (the player "
+            f"stops a mission past {MAX_FIRINGS_PER_INSTANT:,} firings at one instant); make "
+            "each lap wait for a timer > 0 (e.g. Wait(1 s)) if it must not spin")
 
 
 def zero_lasso(g: ReachabilityGraph, zero: npt.NDArray[np.bool_]
