@@ -14,6 +14,7 @@ without a value is checked when it gets one (``mcl run`` compiles with every val
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 from diagnostics import Diagnostic, MclError, Source, Span
 
@@ -49,6 +50,9 @@ class Checked:
     params: dict[str, ast.Value] = field(default_factory=dict)  # parameter -> value
     param_kinds: dict[str, str] = field(default_factory=dict)
     diagnostics: list[Diagnostic] = field(default_factory=list)
+    # what the analyses computed of this mission, kept so that each runs once per mission
+    # (mcl.analysis.duration.analyse: the verifier, the duration report and the time limit)
+    memo: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def resolved(self, call: ast.Call) -> Resolved:
         return self.calls[id(call)]

@@ -29,6 +29,9 @@ from petri.net import ABORT, END_FAIL, END_OK, LATCH_OFF, LATCH_ON, RUN, Net
 
 MISSION_ABORT = "Mission.abort"  # the external stop: operator, uncaught Link.lost, a limit
 LINK_LOST = "Link.lost"
+# At one mission instant, past this many firings a loop spins without time passing (a vehicle
+# that answers at once): the player stops the mission, and the verifier's instant-loop says so.
+MAX_FIRINGS_PER_INSTANT = 10_000
 
 Marking = Sequence[int]
 

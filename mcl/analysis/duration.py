@@ -157,8 +157,17 @@ def json_number(x: float) -> float | None:
 
 # -- the analysis ------------------------------------------------------------------------------
 def analyse(checked: Checked, mission: ast.Mission | None = None) -> Durations:
-    """Bounds of every block of ``mission`` (default: the checked one) and of the mission."""
-    mission = mission or checked.mission
+    """Bounds of every block of ``mission`` (default: the checked one) and of the mission;
+    the checked mission's are computed once and kept (``Checked.memo``)."""
+    if mission is None or mission is checked.mission:
+        if "durations" not in checked.memo:
+            checked.memo["durations"] = _analyse(checked, checked.mission)
+        kept: Durations = checked.memo["durations"]
+        return kept
+    return _analyse(checked, mission)
+
+
+def _analyse(checked: Checked, mission: ast.Mission) -> Durations:
     a = _Analysis(checked)
     ends = a.block(mission.body)
     ends = ends or {"ok": End(INF, INF, (), ())}

@@ -47,11 +47,15 @@ from typing import Any, NamedTuple
 
 from petri.execution.reporting import Observer, Record, Reporting, whole
 from petri.net import Action, Net, resolve
-from petri.semantics import LINK_LOST, MISSION_ABORT, Semantics, block_of
+from petri.semantics import (
+    LINK_LOST,
+    MAX_FIRINGS_PER_INSTANT,
+    MISSION_ABORT,
+    Semantics,
+    block_of,
+)
 
 MAX_IMMEDIATE_FIRINGS = 1_000_000  # per step: a bound on any loop, never reached by a sound net
-MAX_FIRINGS_PER_INSTANT = 10_000  # at one mission instant: past it, a loop spins without time
-#                                   passing (a vehicle that answers at once), and is stopped
 
 __all__ = ["LINK_LOST", "MAX_FIRINGS_PER_INSTANT", "MISSION_ABORT", "Order", "Player", "Record"]
 

@@ -27,8 +27,8 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
-from petri.execution.player import MAX_FIRINGS_PER_INSTANT
 from petri.net import Net
+from petri.semantics import MAX_FIRINGS_PER_INSTANT
 from petri.verification.graph import Adjacency, ReachabilityGraph, lasso
 from petri.verification.reachability import shortest_path
 from petri.verification.verdict import Result, nearest, undecided
