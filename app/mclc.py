@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import Any
 
 from diagnostics import Diagnostic, MclError, Span
-from mcl import ast
 from mcl.api import Compiled, compile_file, parse_params
 
 from app.version import version_text
@@ -358,7 +357,7 @@ def _write_pnml(net: Any, path: str) -> None:
 def _summary(compiled: Compiled) -> dict[str, Any]:
     m = compiled.mission
     tasks = [{"task": c.name, "line": c.span.line, "col": c.span.col}
-             for c in ast.calls(m.body)]
+             for c in m.calls()]
     return {"file": compiled.source.name, "mission": m.name, "status": "compiled",
             "tasks": len(tasks), "task_calls": tasks,
             "places": len(compiled.net.places), "transitions": len(compiled.net.transitions),

@@ -15,7 +15,10 @@ The summary lists every event a CATCH handled (``handled: Alarms.leak at 600.1 s
 wrote it (a handler that ends with ``Fail()`` makes it exit 1). While a remote vehicle is
 being connected it says ``waiting for the vehicle at ADDRESS (N s)`` on standard error each
 second; if none answers, the run is refused before the mission starts ("no vehicle answered
-at ADDRESS within N s"), exit 6.
+at ADDRESS within N s"), exit 6. A stop from outside (a signal, the time limit, an uncaught
+``Link.lost``) runs the mission's ``ON STOP`` handler, if it has one, for at most its proved
+bound; a second signal halts it. The summary says how it went (``stop handler (ON STOP) ended
+ok at 131.2 s, started at 102.0 s (proved bound 300 s)``).
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from mcl.api import Compiled, compile_file, parse_params
 from mission.exits import Exit
 from mission.limits import mission_bound
 from mission.run import NotVerified, NoVehicle, RunResult, run_mission
+from mission.stop_handler import text as stop_text
 from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 
@@ -197,6 +201,8 @@ def _summary(mission: str, result: RunResult, chosen: Vehicle, out: Output,
             + (f": {result.reason}" if result.reason else ""))
     for handled in result.handled:  # what the mission's CATCH blocks caught
         out.say(f"  handled: {handled.text()}")
+    if result.stop_handler is not None:  # the mission's ON STOP, after a stop from outside
+        out.say(f"  {stop_text(result.stop_handler)}")
     if result.status not in ("ok", "fail") or result.switched_off:
         out.say(f"  switched off: {', '.join(result.switched_off) or 'nothing was on'}; "
                 f"{result.confirmed}")

@@ -24,16 +24,20 @@ from mission.run import Stop
 
 
 class Stops:
-    """Signal handlers that record the first stop signal (a context manager)."""
+    """Signal handlers that record the first stop signal and count them (a context manager):
+    the first stops the mission (its stop handler, if it has one, then runs); the next halts
+    the stop handler."""
 
     def __init__(self, names: tuple[str, ...] = ("SIGINT", "SIGTERM", "SIGHUP")):
         self.signals = [getattr(signal, n) for n in names if hasattr(signal, n)]
         self.signal: int | None = None
+        self.count = 0  # the stop signals received
         self._previous: dict[int, Any] = {}
 
     def _handle(self, signum: int, frame: FrameType | None) -> None:
         if self.signal is None:
             self.signal = signum
+        self.count += 1
 
     def reason(self) -> str | None:
         if self.signal is None:
@@ -44,7 +48,11 @@ class Stops:
         """The stop a signal asked for (its reason and number), or None: ``run_mission``'s
         ``stop``."""
         why = self.reason()
-        return Stop(why, self.signal) if why is not None else None
+        if why is None:
+            return None
+        if self.count > 1:
+            why = f"{why} (and {self.count - 1} more stop signal(s))"
+        return Stop(why, self.signal, self.count)
 
     def __enter__(self) -> Stops:
         for s in self.signals:

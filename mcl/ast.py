@@ -133,6 +133,17 @@ class Mission:
     params: tuple[Param, ...] = ()
     span: Span = field(default=_NOWHERE, compare=False)
     uses: tuple[Uses, ...] = ()
+    # ON STOP { ... }: what the mission does when it is stopped from outside (None: nothing)
+    on_stop: Block | None = None
+    stop_span: Span = field(default=_NOWHERE, compare=False)  # where ON STOP stands
+
+    def parts(self) -> tuple[Block, ...]:
+        """The mission's blocks: its body, then its stop handler if it has one."""
+        return (self.body,) if self.on_stop is None else (self.body, self.on_stop)
+
+    def calls(self) -> list[Call]:
+        """Every task call of the mission, its stop handler's included, in source order."""
+        return [c for part in self.parts() for c in calls(part)]
 
 
 def children(block: Block) -> tuple[Block, ...]:

@@ -4,6 +4,7 @@ task library) turned into the AST of :mod:`mcl.ast`, every node with its span.""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from lark import Token, Tree
 
@@ -36,10 +37,17 @@ class AstBuilder:
                        if isinstance(p, Tree) and p.data == "param")
         uses = tuple(self.uses(u) for u in headers if isinstance(u, Tree) and u.data == "uses")
         assert isinstance(mission_tree, Tree)
-        name_tok, block_tree = mission_tree.children
+        name_tok, block_tree, stop_tree = mission_tree.children
         assert isinstance(block_tree, Tree)
         name = str(name_tok) if name_tok is not None else None
-        return ast.Mission(name, self.block(block_tree), params, self.span(mission_tree), uses)
+        mission = ast.Mission(name, self.block(block_tree), params, self.span(mission_tree),
+                              uses)
+        if isinstance(stop_tree, Tree):  # ON STOP { ... }
+            handler = stop_tree.children[0]
+            assert isinstance(handler, Tree)
+            mission = replace(mission, on_stop=self.block(handler),
+                              stop_span=self.span(stop_tree))
+        return mission
 
     def uses(self, tree: Tree[Token]) -> ast.Uses:
         tok = tree.children[0]

@@ -68,8 +68,10 @@ def check_mission(mission: ast.Mission, library: Library, source: Source,
     """Raise MclError listing every error; warnings are kept in ``Checked.diagnostics``."""
     checked = Checked(mission, library, source)
     c = _Checker(checked, source)
-    for call in ast.calls(mission.body):
+    for call in mission.calls():
         c.call(call)
+    if mission.on_stop is not None:
+        c.stop_handler(mission.on_stop)
     c.parameters(overrides or {}, require_values)
     c.limits()
     if any(d.severity == "error" for d in c.diagnostics):
@@ -98,6 +100,26 @@ class _Checker:
 
     def warn(self, message: str, span: Span, hint: str = "", code: str = "") -> None:
         self.diagnostics.append(self.source.diagnostic("warning", message, span, hint, code))
+
+    # -- the stop handler -------------------------------------------------------------------
+    def stop_handler(self, handler: ast.Block) -> None:
+        """ON STOP runs once the mission's blocks have stopped and switched off every latched
+        behaviour: it may not latch one itself (what it switches on, it must switch off)."""
+        for call in ast.calls(handler):
+            if id(call) not in self.checked.calls:
+                continue  # an unknown task: already reported
+            form = self.checked.resolved(call).form
+            if form.latch:
+                message = (f"{call.name}(...) switches {form.latch} on and leaves it on: ON "
+                           "STOP cannot latch a behaviour")
+            elif form.unlatch:
+                message = (f"{call.name}(...) switches {form.unlatch} off: in ON STOP every "
+                           "behaviour of the mission is off already")
+            else:
+                continue
+            self.error(message, call.span, "the stop handler runs once every block of the "
+                       "mission has stopped and switched off what it had on; use tasks that "
+                       "end by themselves, such as Surface()", code="stop-handler-latch")
 
     # -- calls ------------------------------------------------------------------------------
     def call(self, call: ast.Call) -> None:
@@ -290,7 +312,7 @@ class _Checker:
                 self.error(f"parameter '{name}' is used as a {kinds[name]} but its value "
                            f"is {describe(value)}: {problem.message}", where,
                            code="bad-param-value", source=self.sources.get(where.file))
-        uses = _first_uses(self.checked.mission.body)
+        uses = _first_uses(self.checked.mission)
         for name in sorted(kinds):
             if name not in params:
                 span = uses.get(name, self.checked.mission.span)
@@ -349,7 +371,7 @@ def _name_span(call: ast.Call) -> Span:
     return Span(s.file, s.line, s.col, s.line, s.col + len(call.name))
 
 
-def _first_uses(body: ast.Block) -> dict[str, Span]:
+def _first_uses(mission: ast.Mission) -> dict[str, Span]:
     uses: dict[str, Span] = {}
 
     def visit(v: ast.Value) -> None:
@@ -360,7 +382,7 @@ def _first_uses(body: ast.Block) -> dict[str, Span]:
                 for i in items:
                     visit(i)
 
-    for call in ast.calls(body):
+    for call in mission.calls():
         for a in call.args:
             visit(a.value)
     return uses

@@ -67,7 +67,7 @@ def latch_flow(checked: Checked) -> latches.Flow:
 def _latches(ctx: Context) -> None:
     """One state machine per latched behaviour: an "off" place and an "on" place per call
     that switches it on, made before the templates so that any block can switch them off."""
-    for call in ast.calls(ctx.checked.mission.body):
+    for call in ast.calls(ctx.checked.mission.body):  # ON STOP latches nothing (checker)
         form = ctx.checked.resolved(call).form
         behaviour = form.latch or form.unlatch
         if behaviour is None:

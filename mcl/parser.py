@@ -26,7 +26,7 @@ from mcl import ast
 from mcl.ast_builder import AstBuilder, token_span
 
 KEYWORDS = ("MISSION", "PARAM", "USES", "TRY", "CATCH", "DO", "PARALLEL", "AND", "OR", "IF", "THEN",
-            "ELSE", "WHILE")
+            "ELSE", "WHILE", "ON", "STOP")
 MAX_DEPTH = 100  # blocks nested deeper than this are refused ("absurd nesting")
 
 # code -> (message, hint, examples that fail in the same parser state)

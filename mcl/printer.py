@@ -18,7 +18,8 @@ def mission(m: ast.Mission) -> str:
     lines += [f"PARAM {p.name}" + (f" = {to_text(p.value)}" if p.value is not None else "") + ";"
              for p in m.params]
     head = "MISSION" + (f" {m.name}" if m.name else "")
-    lines.append(f"{head} {block(m.body, 0)}")
+    stop = f" ON STOP {block(m.on_stop, 0)}" if m.on_stop is not None else ""
+    lines.append(f"{head} {block(m.body, 0)}{stop}")
     return "\n".join(lines) + "\n"
 
 

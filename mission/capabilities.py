@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from aal.messages import Declaration
 from diagnostics import Diagnostic, MclError, Source
-from mcl import ast, tasklib
+from mcl import tasklib
 from mcl.api import Compiled
 
 
@@ -29,7 +29,7 @@ def check_capabilities(compiled: Compiled, declaration: Declaration) -> None:
     problems: list[Diagnostic] = []
     seen: set[tuple[int, int, str]] = set()
     listing = ", ".join(sorted(have)) or "none"
-    for call in ast.calls(compiled.mission.body):
+    for call in compiled.mission.calls():
         resolved = compiled.checked.calls.get(id(call))
         if resolved is None:
             continue

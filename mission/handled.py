@@ -53,7 +53,8 @@ class Handled:
 
 def catch_lines(mission: ast.Mission) -> dict[tuple[int, int], int]:
     """Each TRY's line and column -> the line of its CATCH block."""
-    return {(b.span.line, b.span.col): b.catch.span.line for b in ast.walk(mission.body)
+    return {(b.span.line, b.span.col): b.catch.span.line for part in mission.parts()
+            for b in ast.walk(part)
             if isinstance(b, ast.TryCatchDo)}
 
 

@@ -58,6 +58,7 @@ from petri.execution.status import MissionStatus
 
 from mission.capabilities import check_capabilities
 from mission.exits import Exit, run_exit
+from mission.stop_handler import StopWatch, as_record, bound
 from mission.handled import CatchWatch, Handled
 from mission.limits import max_time as time_bound
 from mission.vehicle import Answers, Vehicle
@@ -78,6 +79,7 @@ class Stop:
 
     reason: str
     signal: int | None = None
+    count: int = 1  # the how-many-th request this is: a new one halts the stop handler
 
 
 class NotVerified(MclError):
@@ -122,6 +124,7 @@ class RunResult:
     vehicle_clock: tuple[float, float] | None  # the vehicle's clock at start and end, when it
     #                                            differs from mission time
     handled: tuple[Handled, ...] = ()  # every event a CATCH handled, in order
+    stop_handler: dict[str, Any] | None = None  # how the ON STOP handler went, if it ran
 
     @property
     def ok(self) -> bool:
@@ -183,7 +186,9 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
                        vehicle_t=round(play.clock.vehicle(outcome.time), 6),
                        switched_off=outcome.switched_off, confirmed=outcome.confirmed,
                        limit=limit[0], limit_from=limit[1],
-                       handled=[h.as_record() for h in result.handled])
+                       handled=[h.as_record() for h in result.handled],
+                       **({"stop_handler": result.stop_handler} if result.stop_handler
+                          else {}))
     return result
 
 
@@ -219,8 +224,9 @@ class _Play:
         self.compiled, self.chosen, self.name = compiled, chosen, name
         self.player, self.clock = player, clock
         self.last_t = 0.0  # the mission time of the last record (the end never goes back)
-        self.stopped: list[Stop] = []  # the first stop asked for
+        self.stopped: list[Stop] = []  # the stops asked for, first first
         self.catches = CatchWatch(compiled)  # what the CATCH blocks handled
+        self.stop_watch = StopWatch()  # how the ON STOP handler ended
 
     def seen(self, record: Record) -> None:
         self.last_t = record.t
@@ -245,14 +251,15 @@ class _Play:
                         check_capabilities(self.compiled, said)
                 if opened is not None:
                     player.observers.append(opened)
-                player.observers.extend((self.seen, self.catches))
+                player.observers.extend((self.seen, self.catches, self.stop_watch))
                 if chosen.status is not None:  # observers of the mission: mcl monitor
                     player.observers.append(MissionStatus(
                         player, self.name, chosen.status.run, chosen.status.publish_status,
                         vehicle_time=self.clock.vehicle))
                 player.observers.extend(observers)
                 return run(player, chosen.adapter, self.name, max_time=limit,
-                           stop=self.asking(stop), clock=self.clock)
+                           stop=self.asking(stop), clock=self.clock,
+                           stop_bound=bound(self.compiled.checked))
         except NoVehicle as exc:  # the mission never started: nothing was sent
             if opened is not None:
                 opened.end(0.0, "no vehicle", str(exc), exit=Exit.NO_VEHICLE,
@@ -272,7 +279,9 @@ class _Play:
 
     def asking(self, stop: Callable[[], Stop | str | None] | None
                ) -> Callable[[], str | None] | None:
-        """The runner's ``stop`` (a reason or None), remembering the first :class:`Stop`."""
+        """The runner's ``stop``: the reason of a new request (None: none since the last), the
+        requests remembered. A request is new when its ``count`` or its reason differs from
+        the last one's."""
         if stop is None:
             return None
 
@@ -281,8 +290,10 @@ class _Play:
             if asked is None:
                 return None
             request = asked if isinstance(asked, Stop) else Stop(str(asked))
-            if not self.stopped:
-                self.stopped.append(request)
+            if self.stopped and (self.stopped[-1].count, self.stopped[-1].reason) == (
+                    request.count, request.reason):
+                return None  # asked already
+            self.stopped.append(request)
             return request.reason
 
         return reason
@@ -308,4 +319,6 @@ class _Play:
             log=opened.path if opened is not None else None,
             vehicle_clock=((clock.vehicle(0.0), clock.vehicle(outcome.time))
                            if clock.origin else None),
-            handled=tuple(self.catches.handled))
+            handled=tuple(self.catches.handled),
+            stop_handler=(as_record(outcome.stop_handler, self.stop_watch)
+                          if outcome.stop_handler is not None else None))

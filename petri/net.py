@@ -71,10 +71,12 @@ def _short(value: Json) -> str:
 # What a place is for, set by the template that makes it (never read back from its name).
 # A block's interface: BEGIN, ABORT (a token asks the block to stop), OK, FAIL, ABORTED;
 # RUN: a task is running; LATCH_OFF / LATCH_ON: a latched behaviour's state; END_OK /
-# END_FAIL: the mission has ended; INNER: any other place of a template.
+# END_FAIL: the mission has ended; STOP_HANDLER: the mission's stop handler (MCL's ON STOP)
+# is running, after a stop from outside; INNER: any other place of a template.
 BEGIN, ABORT, OK, FAIL, ABORTED = "begin", "abort", "ok", "fail", "aborted"
 RUN, LATCH_OFF, LATCH_ON, END_OK, END_FAIL, INNER = (
     "run", "latch-off", "latch-on", "end-ok", "end-fail", "inner")
+STOP_HANDLER = "stop-handler"
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ from __future__ import annotations
 from collections.abc import Iterable, MutableSequence, Sequence
 from typing import Any
 
-from petri.net import ABORT, END_FAIL, END_OK, LATCH_OFF, LATCH_ON, RUN, Net
+from petri.net import ABORT, END_FAIL, END_OK, LATCH_OFF, LATCH_ON, RUN, STOP_HANDLER, Net
 
 MISSION_ABORT = "Mission.abort"  # the external stop: operator, uncaught Link.lost, a limit
 LINK_LOST = "Link.lost"
@@ -65,6 +65,7 @@ class Semantics:
             p: "fail" for p in net.places_with(END_FAIL)}
         self.latch_states = net.places_with(LATCH_OFF, LATCH_ON)
         self.run_places = net.places_with(RUN)
+        self.stop_handler = net.places_with(STOP_HANDLER)  # marked while ON STOP runs
         self.holders: dict[str, list[int]] = {}  # behaviour -> the places that hold it on
         for p, place in enumerate(places):
             for b in place.behaviours:

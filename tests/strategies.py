@@ -471,7 +471,9 @@ def any_missions(draw: st.DrawFn) -> ast.Mission:
         return st.one_of(st.none(), right, any_values)
 
     params = tuple(ast.Param(n, draw(any_value_for(n))) for n in names)
-    return ast.Mission(draw(st.one_of(st.none(), NAMES)), body, params)
+    on_stop = draw(st.one_of(st.none(), bodies(st.one_of(any_calls(), ictineu_calls()),
+                                               max_depth=1, max_calls=2)))  # ON STOP
+    return ast.Mission(draw(st.one_of(st.none(), NAMES)), body, params, on_stop=on_stop)
 
 
 # -- custom task libraries: degrees of freedom shared, latches, watchers (tests/mcl/test_routes.py)

@@ -215,7 +215,7 @@ def disable_while_held(checked: Checked, flow: ClashFlow, calls: list[ast.Call],
 
 
 def construct_line(checked: Checked, a: ast.Call, b: ast.Call) -> int:
-    for block in ast.walk(checked.mission.body):
+    for block in (b for part in checked.mission.parts() for b in ast.walk(part)):
         kids = ast.children(block)
         inside = [any(x is a for x in ast.calls(k)) or any(x is b for x in ast.calls(k))
                   for k in kids]

@@ -167,6 +167,19 @@ def analyse(checked: Checked, mission: ast.Mission | None = None) -> Durations:
     return _analyse(checked, mission)
 
 
+def stop_handler(checked: Checked) -> Durations | None:
+    """Bounds of the mission's stop handler (``ON STOP``), analysed as a mission of its own:
+    it starts once everything else has stopped (None: the mission has none); computed once."""
+    handler = checked.mission.on_stop
+    if handler is None:
+        return None
+    if "stop_durations" not in checked.memo:
+        checked.memo["stop_durations"] = _analyse(
+            checked, ast.Mission(checked.mission.name, handler, span=checked.mission.stop_span))
+    kept: Durations = checked.memo["stop_durations"]
+    return kept
+
+
 def _analyse(checked: Checked, mission: ast.Mission) -> Durations:
     a = _Analysis(checked)
     ends = a.block(mission.body)

@@ -30,6 +30,7 @@ state space is not enumerated).
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from functools import cache
 
 from diagnostics import Source
@@ -72,10 +73,11 @@ def estimate_markings(block: ast.Block) -> float:
 
 def mission_estimate(checked: Checked) -> float:
     """Markings, roughly, with the latched behaviours (each one's state multiplies)."""
-    latched = {b for c in ast.calls(checked.mission.body)
+    latched = {b for c in checked.mission.calls()
                for b in [_latch_of(checked.resolved(c).form)[0]] if b is not None}
     factor = 3.0 * 2.0 ** min(len(latched), 8)
-    return min(estimate_markings(checked.mission.body) * factor, 1e300)
+    blocks = sum(estimate_markings(part) for part in checked.mission.parts())
+    return min(blocks * factor, 1e300)
 
 
 def _latch_of(form: TaskForm) -> tuple[str | None, bool]:
@@ -85,9 +87,11 @@ def _latch_of(form: TaskForm) -> tuple[str | None, bool]:
 
 
 # -- 1. templates verified with generic children --------------------------------------------
-def _template_keys(body: ast.Block) -> list[tuple[str, int]]:
+def _template_keys(mission: ast.Mission) -> list[tuple[str, int]]:
     keys: set[tuple[str, int]] = set()
-    for b in ast.walk(body):
+    if mission.on_stop is not None:
+        keys.add(("STOP", 1))
+    for b in (b for part in mission.parts() for b in ast.walk(part)):
         match b:
             case ast.Sequence(items=items):
                 keys.add(("SEQ", min(len(items), 3)))
@@ -112,6 +116,9 @@ def _generic_mission(kind: str, arity: int, variant: str) -> str:
     elif variant == "at-once":
         names[0] = "Now()"
     blocks = ["{ " + n + " }" for n in names]
+    if kind == "STOP":  # the mission template with a stop handler
+        body, handler = (names[0], "B()") if variant != "at-once" else ("A()", "Now()")
+        return f"MISSION {{ {body} }} ON STOP {{ {handler} }}"
     match kind:
         case "TASK":
             body = names[0]
@@ -165,7 +172,7 @@ def analyse(checked: Checked, net: Net | None = None, note: str = "") -> Verdict
     verdict = Verdict(net, 0, 0, 0.0)
     suffix = f" ({note})" if note else ""
     body = checked.mission.body
-    verdict.results += by_construction(body, suffix)
+    verdict.results += by_construction(checked.mission, suffix)
     out = outcomes.Outcomes(checked)
     reach = out.reachable(body)
     ends = termination.result(checked)  # every run ends: decided from the worst case
@@ -173,6 +180,8 @@ def analyse(checked: Checked, net: Net | None = None, note: str = "") -> Verdict
     verdict.results.append(ends)
     verdict.results += outcomes.results(out, body, reach, outcomes.METHOD + suffix)
     verdict.results += clashes.results(checked, out, body, reach, clashes.METHOD + suffix)
+    if checked.mission.on_stop is not None:
+        verdict.results = with_stop_handler(checked, out, verdict.results, suffix)
     verdict.results.append(actions_match(net))
     verdict.results.append(undecided("no-dead-transitions", "not checked: the state space is "
                                      "not enumerated", "not established" + suffix,
@@ -181,14 +190,37 @@ def analyse(checked: Checked, net: Net | None = None, note: str = "") -> Verdict
     return verdict
 
 
-def by_construction(body: ast.Block, suffix: str = "") -> list[Result]:
+def with_stop_handler(checked: Checked, out: outcomes.Outcomes, results: list[Result],
+                      suffix: str) -> list[Result]:
+    """The body's results, each replaced by the stop handler's where the handler breaks the
+    property. The handler runs alone (the body has stopped and everything is off), so it is
+    analysed as a mission of its own. Whether it ends is ``stop-ends`` (its worst case);
+    ``stop-safe`` holds by construction: a second stop halts it (the STOP template)."""
+    handler = checked.mission.on_stop
+    assert handler is not None
+    reach = out.reachable(handler)
+    found = outcomes.results(out, handler, reach, outcomes.METHOD + suffix)
+    found += clashes.results(checked, out, handler, reach, clashes.METHOD + suffix)
+    broken = {r.name: r for r in found if not r.holds and r.name != "can-end"}
+    merged = []
+    for r in results:
+        h = broken.get(r.name)
+        if h is None or (not r.holds and not r.undecided):  # the body's violation stays
+            merged.append(r)
+        else:
+            merged.append(replace(h, name=r.name, severity=r.severity,
+                                  message=f"in the stop handler (ON STOP): {h.message}"))
+    return merged
+
+
+def by_construction(mission: ast.Mission, suffix: str = "") -> list[Result]:
     """The properties that hold for the whole mission when every template it uses holds
     them with generic children (part 1); ``suffix``: added to the method."""
-    keys = _template_keys(body)
+    keys = _template_keys(mission)
     checked_templates = [(k, template_check(*k)) for k in keys]
     bad = [(k, r) for k, r in checked_templates if not r[0]]
     total = sum(r[1] for _, r in checked_templates)
-    shown = ", ".join(k if k in ("TASK", "TRY", "WHILE") else f"{k}×{a}"
+    shown = ", ".join(k if k in ("TASK", "TRY", "WHILE", "STOP") else f"{k}×{a}"
                       for (k, a), _ in checked_templates)
     how = (f"by construction: each template used ({shown}) verified with generic children, "
            f"{total} markings in all{suffix}")

@@ -26,12 +26,12 @@ from petri.verification.graph import ReachabilityGraph
 from petri.verification.properties import Result, undecided
 from petri.verification.termination import lasso_through
 
-from mcl import ast
-from mcl.analysis.duration import Durations, Path, Step, analyse
+from mcl.analysis.duration import Durations, Path, Step, analyse, stop_handler
 from mcl.checker import Checked
 from mcl.quantities import seconds_text
 
 NAME = "terminates"
+STOP_NAME = "stop-ends"  # the stop handler ends by itself within a proved bound
 METHOD = "proved worst-case duration (mcl/analysis/duration.py: timeouts and timers only)"
 ANSWER = re.compile(r"ends (ok|fail) (?:at once )?on (\S+)")
 
@@ -83,7 +83,7 @@ def loop_text(s: Step, lap: Path) -> str:
 
 def wait_text(checked: Checked, s: Step) -> str:
     """The task that waits for an event with no timeout."""
-    events = next((f.ok + f.fail for c in ast.calls(checked.mission.body)
+    events = next((f.ok + f.fail for c in checked.mission.calls()
                    if (c.span.line, c.span.col) == (s.line, s.col)
                    for f in [checked.resolved(c).form]), ())
     what = " or ".join(events) if events else "an event"
@@ -137,3 +137,22 @@ def waiting(g: ReachabilityGraph, message: str, method: str, start: list[int]) -
     path, at = g.main_arcs.path(0, goal)
     return Result(NAME, False, "error", message, method,
                   [int(ss.transition[a]) for a in path], at)
+
+
+def stop_result(checked: Checked) -> Result | None:
+    """``stop-ends``: the mission's stop handler (``ON STOP``) ends by itself within its proved
+    worst case, the bound ``mcl run`` gives it after a stop (None: the mission has none)."""
+    d = stop_handler(checked)
+    if d is None:
+        return None
+    where = f"the stop handler (ON STOP, line {checked.mission.stop_span.line})"
+    if math.isfinite(d.worst):
+        return Result(STOP_NAME, True, "error", f"{where} ends by itself within "
+                      f"{seconds_text(d.worst)} (its proved worst case), with nothing on", METHOD)
+    why = endless(checked, d)
+    if why is not None and not why.loop and any((u.line, u.col) == (why.line, why.col)
+                                                for u in d.unset_timers):
+        return undecided(STOP_NAME, f"line {why.line}: only a timer whose value is a mission "
+                         "parameter without a value bounds it: give it a value", METHOD)
+    text = why.why if why is not None else "its proved worst case is unbounded"
+    return Result(STOP_NAME, False, "error", f"{where} may never end: {text}", METHOD)

@@ -67,7 +67,20 @@ def marking_limit(net: Net, max_markings: int, max_bytes: int) -> int:
 def verify_mission(compiled: Compiled, method: str = "auto", max_markings: int = MAX_MARKINGS,
                    max_bytes: int = MAX_BYTES, keep_graph: bool = False) -> Verdict:
     """Verify a compiled mission by ``method`` ("auto", "explicit" or "structural");
-    ``keep_graph``: the verdict keeps the explicit route's graph (``Verdict.space``)."""
+    ``keep_graph``: the verdict keeps the explicit route's graph (``Verdict.space``). A
+    mission with a stop handler also gets ``stop-ends`` (mcl/analysis/termination.py), the
+    same on every route."""
+    verdict = _verify(compiled, method, max_markings, max_bytes, keep_graph)
+    stop = termination.stop_result(compiled.checked)
+    if stop is not None:  # beside stop-safe
+        at = next((i + 1 for i, r in enumerate(verdict.results) if r.name == "stop-safe"),
+                  len(verdict.results))
+        verdict.results.insert(at, stop)
+    return verdict
+
+
+def _verify(compiled: Compiled, method: str, max_markings: int, max_bytes: int,
+            keep_graph: bool) -> Verdict:
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}: one of {', '.join(METHODS)}")
     net = compiled.net

@@ -242,7 +242,11 @@ class Player:
         """Stop the mission from outside (an operator, a limit, a signal, a lost link): the
         ``Mission.abort`` transition fires, the blocks stop their tasks and switch their
         latched behaviours off (immediate firings, all at ``now``), and the mission ends fail.
-        Anything still on after that is switched off too. Does nothing once it has ended."""
+        Anything still on after that is switched off too. Does nothing once it has ended.
+
+        A mission with a stop handler (MCL's ``ON STOP``) does not end there: the handler
+        starts (:attr:`handling`), and the mission ends when it does; a second abort while it
+        runs aborts the handler in turn (the net's ``MISSION.halt``), and the mission ends."""
         if self.finished:
             return
         self._clock = max(self._clock, now)
@@ -252,6 +256,9 @@ class Player:
                 if self.enabled(t):
                     self._fire(t, self._clock, "abort")
             self._settle_immediate()
+            if self.handling:  # the mission's stop handler runs now; a second abort stops it
+                self._instant_firings = 0  # its firings count afresh
+                return
         self.status = "running"  # so that _check_end reports (and switches off what is on)
         self._check_end(self._clock)
         if not self.finished:  # the net could not end (a bug, or not started): end it here
@@ -259,6 +266,11 @@ class Player:
                 self._switch_off(self._clock)
                 self.status = "fail"
                 self._emit(self._clock, "status", {"status": "fail"})
+
+    @property
+    def handling(self) -> bool:
+        """The mission's stop handler is running (after an abort, until it ends)."""
+        return any(self.marking[p] for p in self.rules.stop_handler)
 
     @whole
     def note_ignored(self, event: str, now: float, reason: str) -> None:

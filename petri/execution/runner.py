@@ -44,6 +44,8 @@ log = logging.getLogger(__name__)
 MAX_ROUNDS = 10_000_000
 UNBOUNDED_MAX_TIME = 7200.0  # s: the limit of a mission whose timeouts do not bound it
 CONFIRM_TIMEOUT = 3.0  # wall s: the longest wait for the vehicle to confirm the switch-off
+UNBOUNDED_STOP_BOUND = 600.0  # s: the stop handler's limit when no bound was proved for it
+STUCK = "waiting for an event that will never come: no timer is armed and the vehicle is idle"
 
 
 @dataclass
@@ -65,20 +67,38 @@ class Outcome:
     reason: str = ""
     confirmed: str = ""  # what the vehicle confirmed of the final switch-off
     switched_off: list[str] = field(default_factory=list)  # disabled by the abort
+    # the mission's stop handler (MCL's ON STOP), when a stop started it: how it went
+    stop_handler: StopHandler | None = None
+
+
+@dataclass
+class StopHandler:
+    """How the mission's stop handler went: ``ended`` (it ended by itself, at ``time``) or
+    ``halted`` (stopped in turn: ``reason``), within ``bound`` s of mission time from its
+    ``start``."""
+
+    start: float
+    bound: float
+    how: str = "running"  # "ended" | "halted"
+    time: float = 0.0
+    reason: str = ""
 
 
 def run(player: Player, vehicle: Vehicle, mission: str, max_time: float = UNBOUNDED_MAX_TIME,
         max_rounds: int = MAX_ROUNDS, poll: float = 0.05,
         stop: Callable[[], str | None] | None = None, clock: MissionClock | None = None,
-        confirm: float = CONFIRM_TIMEOUT) -> Outcome:
+        confirm: float = CONFIRM_TIMEOUT, stop_bound: float = math.inf) -> Outcome:
     """Run to the end. ``poll``: the longest single wait (wall-time vehicles); ``stop``:
-    called every round, returns why to stop now (or None)."""
+    called every round, returns why to stop now (or None) — once per request: while the
+    stop handler runs, a reason means a new request; ``stop_bound``: the mission time the
+    stop handler is given (its proved worst case)."""
     clock = clock if clock is not None else MissionClock()
     try:
         clock.origin = vehicle.now()
     except Exception as exc:  # noqa: BLE001
         return Outcome("error", 0.0, 0, f"the vehicle's clock: {type(exc).__name__}: {exc}")
-    this = Run(player, vehicle, mission, clock.origin, max_time, poll, stop, confirm)
+    this = Run(player, vehicle, mission, clock.origin, max_time, poll, stop, confirm,
+               stop_bound)
     why = stop() if stop is not None else None
     if why:  # stopped before anything was sent
         return this.end("stopped", 0.0, why)
@@ -93,7 +113,7 @@ class Run:
 
     def __init__(self, player: Player, vehicle: Vehicle, mission: str, origin: float,
                  max_time: float, poll: float, stop: Callable[[], str | None] | None,
-                 confirm: float) -> None:
+                 confirm: float, stop_bound: float = math.inf) -> None:
         self.player = player
         self.vehicle = vehicle
         self.mission = mission
@@ -103,6 +123,7 @@ class Run:
         self.poll = poll
         self.stop = stop
         self.confirm = confirm
+        self.stop_bound = stop_bound if math.isfinite(stop_bound) else UNBOUNDED_STOP_BOUND
         self.simulated = bool(getattr(vehicle, "simulated", False))
         self.seq = itertools.count()  # the numbers of the orders sent
         self.failures: list[str] = []  # what the vehicle raised while an action was sent
@@ -167,10 +188,18 @@ class Run:
         ending = self.reason_to_end(now)
         if ending is not None:
             return ending
+        if self.player.handling:  # the player stopped the mission itself: its handler runs
+            return self.own_stop(now)
+        if not self.step(now):
+            return self.end("stuck", now, STUCK)
+        return None
+
+    def step(self, now: float) -> bool:
+        """Wait for the vehicle's events until the next timer falls due (never past the
+        limit), deliver them, settle the player; False if nothing can happen any more."""
         deadline = self.player.next_deadline()
         if deadline is None and self.vehicle.idle():
-            return self.end("stuck", now, "waiting for an event that will never come: no "
-                                          "timer is armed and the vehicle is idle")
+            return False
         limit = self.limit
         if self.simulated:  # the clock jumps: no need to poll, but never past the limit
             until = min(deadline if deadline is not None else limit, limit)
@@ -183,7 +212,7 @@ class Run:
             self.player.settle(min(self.mission_time(), limit))
         finally:
             self.drain()
-        return None
+        return True
 
     def reason_to_end(self, now: float) -> Outcome | None:
         """The outcome, if the run ends at this round: the mission ended, the vehicle failed,
@@ -241,18 +270,90 @@ class Run:
             if self.player.finished and not trouble:  # they ended the mission by themselves
                 return self.ended(t)
         try:
-            self.player.abort(t, reason)
+            if not self.player.handling:  # (a stop handler already running is not restarted)
+                self.player.abort(t, reason)
         except Exception as exc:  # noqa: BLE001 - an observer, or a bug in the player
             trouble.append(exc)
         self.drain()
-        if trouble:
-            log.error("the player could not abort cleanly (%s): switching off what is on",
-                      trouble[0])
-            for b in sorted(self.player.behaviours_on):  # what the net could not switch off
-                self.send(Order(t, "MISSION", "disable", b, {}))
-        outcome = Outcome(status, t, self.rounds, reason, switched_off=sorted(set(self.disabled)))
+        handler = None
+        if self.player.handling and not trouble:
+            handler = StopHandler(t, self.stop_bound)
+            t = self.run_stop_handler(handler, trouble)
+        self.force_off(t, trouble)
+        outcome = Outcome(status, t, self.rounds, reason, switched_off=sorted(set(self.disabled)),
+                          stop_handler=handler)
         outcome.confirmed = self.confirmation(outcome.switched_off)
         return outcome
+
+    def own_stop(self, now: float) -> Outcome:
+        """The player stopped the mission itself (``Link.lost`` that no block catches, a loop
+        spinning at one instant) and the mission's stop handler runs: play it, then end as
+        the mission ended."""
+        handler = StopHandler(now, self.stop_bound)
+        trouble: list[Exception] = []
+        t = self.run_stop_handler(handler, trouble)
+        self.force_off(t, trouble)
+        outcome = self.ended(t)
+        outcome.stop_handler = handler
+        return outcome
+
+    def force_off(self, t: float, trouble: list[Exception]) -> None:
+        """If the player could not abort cleanly: a disable of everything still on."""
+        if not trouble:
+            return
+        log.error("the player could not abort cleanly (%s): switching off what is on",
+                  trouble[0])
+        for b in sorted(self.player.behaviours_on):  # what the net could not switch off
+            self.send(Order(t, "MISSION", "disable", b, {}))
+
+    def run_stop_handler(self, handler: StopHandler, trouble: list[Exception]) -> float:
+        """Play the mission's stop handler after an abort: rounds as usual until it ends, for
+        at most its bound of mission time. A new stop request, a vehicle that fails, a lost
+        link (it carries no actions), nothing left to wait for, or the bound halts it: the
+        net aborts it in turn (``Player.abort`` again). Returns the mission time at its end."""
+        self.stopping = False  # what the handler switches off is its own doing, not the stop's
+        self.limit = handler.start + handler.bound
+        now = handler.start
+        try:
+            for _ in range(MAX_ROUNDS):
+                self.now = now = max(now, self.mission_time())
+                why = self.halt_reason(now)
+                if why is None and now >= self.limit - 1e-9:
+                    self.player.settle(self.limit)  # what falls due at the bound still fires
+                    self.drain()
+                    now = self.limit if self.simulated else now
+                    if not self.player.finished:
+                        why = f"not ended within its proved bound of {handler.bound:g} s"
+                if self.player.finished:
+                    handler.how, handler.time = "ended", now
+                    return now
+                if why is None and not self.step(now):
+                    why = STUCK
+                if why is not None:
+                    handler.how, handler.time, handler.reason = "halted", now, why
+                    break
+            else:
+                handler.how, handler.time, handler.reason = "halted", now, "round limit reached"
+        except Exception as exc:  # noqa: BLE001 - the handler's own trouble: halt it safely
+            handler.how, handler.time = "halted", now
+            handler.reason = f"{type(exc).__name__}: {exc}"
+        self.stopping = True
+        try:
+            self.player.abort(now, f"the stop handler was halted: {handler.reason}")
+        except Exception as exc:  # noqa: BLE001 - the forced switch-off below still runs
+            trouble.append(exc)
+        self.drain()
+        return now
+
+    def halt_reason(self, now: float) -> str | None:
+        """Why to halt the stop handler now, if it must be: a new stop request, a vehicle
+        that failed, or a link that carries no actions any more."""
+        if self.failures:
+            return f"the vehicle failed: {self.failures[0]}"
+        if getattr(self.vehicle, "lost", False):
+            return "the link to the vehicle is lost: it carries no actions"
+        why = self.stop() if self.stop is not None else None
+        return f"stopped again: {why}" if why else None
 
     def confirmation(self, names: list[str]) -> str:
         """Ask the vehicle (if its adapter can) to confirm that everything is off, bounded."""

@@ -138,6 +138,11 @@ def test_a_point_missing_fields_gets_the_defaults_its_library_declares() -> None
     ("MISSION {\n  Wait(1e308 h)\n}", "number-out-of-range", "2:8"),
     ("MISSION {\n  AchieveHeadDist(0 deg, -1 m)\n}", "value-out-of-range", "2:26"),
     ("MISSION {\n  GoTo((0, 0))\n}", "missing-field", "2:8"),
+    ("MISSION {\n  Wait(1 s)\n} ON STOP {\n  StartCamera(enable); Surface()\n}",
+     "stop-handler-latch", "4:3"),
+    ("MISSION {\n  Wait(1 s)\n} ON STOP {\n  Surface(); KeepHeadDist(disable)\n}",
+     "stop-handler-latch", "4:14"),
+    ("MISSION {\n  Wait(1 s)\n} ON STOP {\n  Surfce()\n}", "unknown-task", "4:3"),
 ])
 def test_each_error_at_its_place(text: str, code: str, where: str) -> None:
     with pytest.raises(MclError) as info:

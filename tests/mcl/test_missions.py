@@ -30,7 +30,7 @@ def _summary(path: Path) -> dict[str, object]:
     verdict = verify_mission(compiled, "explicit")
     return {
         "mission": compiled.mission.name,
-        "calls": [f"{c.name}@{c.span.line}:{c.span.col}" for c in ast.calls(compiled.mission.body)],
+        "calls": [f"{c.name}@{c.span.line}:{c.span.col}" for c in compiled.mission.calls()],
         "places": len(net.places),
         "transitions": len(net.transitions),
         "arcs": net.arc_count(),
@@ -110,7 +110,7 @@ def test_mclc_json_summary() -> None:
     proc = cli("mclc", str(MISSIONS / "dam_inspection.mcl"), "--json")
     assert proc.returncode == 0, proc.stderr
     report = json.loads(proc.stdout)
-    assert report["tasks"] == 14
+    assert report["tasks"] == 15  # 14 in the body, Surface() in ON STOP
     assert report["status"] == "verified"
     assert report["places"] > 0 and report["transitions"] > 0
     assert {p["property"] for p in report["verification"]["properties"]} >= {

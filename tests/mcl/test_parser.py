@@ -131,7 +131,7 @@ def test_keywords_are_the_grammars() -> None:
     text = _parse(EVERY_CONSTRUCT)  # every keyword but none unknown to the parser
     assert text.name == "dam"
     assert set(KEYWORDS) == {"MISSION", "PARAM", "USES", "TRY", "CATCH", "DO", "PARALLEL",
-                             "AND", "OR", "IF", "THEN", "ELSE", "WHILE"}
+                             "AND", "OR", "IF", "THEN", "ELSE", "WHILE", "ON", "STOP"}
 
 
 # -- syntax errors at their place ------------------------------------------------------------

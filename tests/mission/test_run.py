@@ -173,7 +173,10 @@ def test_the_time_limit_and_the_end_note(tmp_path: Path) -> None:
                          end_note=lambda: "a note of the caller")
     assert (result.status, result.how, result.exit) == ("timeout", "time limit",
                                                         Exit.UNDECIDED)
-    assert result.time == 100.0 and (result.limit, result.limit_from) == (100.0, "--max-time")
+    # the limit stops the mission at 100 s; its ON STOP { Surface() } then runs (25 s here)
+    assert result.stop_handler == {"how": "ended ok", "start": 100.0, "end": 125.0,
+                                   "bound": 300.0}
+    assert result.time == 125.0 and (result.limit, result.limit_from) == (100.0, "--max-time")
     assert result.why == "mission time limit of 100 s reached; a note of the caller"
 
 

@@ -183,3 +183,57 @@ def test_mclc_verifies_the_quoted_loop_raced_by_a_timeout(tmp_path: Path) -> Non
     proc = cli("mclc", str(write(tmp_path, raced)))
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "[ok  ] terminates: every run ends, whatever the vehicle answers" in proc.stdout
+
+
+# -- stop-ends: the stop handler ends within a proved bound (ON STOP, issue 21) ---------------
+@pytest.mark.parametrize("method", ["explicit", "structural", "auto"])
+def test_a_stop_handler_that_can_loop_for_ever_is_refused_on_every_route(method: str) -> None:
+    text = ("MISSION m {\n  GoTo((0, 0, 5, 0), timeout = 2 min)\n} ON STOP {\n"
+            "  WHILE { Wait(1 s) } DO { Surface() }\n}\n")
+    verdict = verify_mission(_compile(text), method)
+    ends = {r.name: r for r in verdict.results}[termination.STOP_NAME]
+    assert ends.status == "fails" and not verdict.ok
+    assert "the WHILE at line 4" in ends.message and "Surface.surfaced" in ends.message
+    assert {r.name: r for r in verdict.results}["terminates"].holds  # the body itself ends
+
+
+@pytest.mark.parametrize("method", ["explicit", "structural"])
+def test_a_bounded_stop_handler_is_proved_with_its_bound(method: str) -> None:
+    text = ("MISSION m {\n  Wait(1 min)\n} ON STOP {\n"
+            "  PARALLEL { WHILE { Wait(1 s) } DO { Surface() } } OR { Timeout(90 s) }\n}\n")
+    verdict = verify_mission(_compile(text), method)
+    ends = {r.name: r for r in verdict.results}[termination.STOP_NAME]
+    assert ends.holds and "within 90 s" in ends.message, ends
+    assert verdict.ok, [r for r in verdict.results if not r.holds]
+
+
+def test_a_clash_inside_the_stop_handler_fails_on_both_routes() -> None:
+    text = ("MISSION m {\n  Wait(1 min)\n} ON STOP {\n"
+            "  PARALLEL { Surface() } AND { GoTo((0, 0, 0, 0), timeout = 1 min) }\n}\n")
+    for method in ("explicit", "structural"):
+        clash = {r.name: r for r in verify_mission(_compile(text), method).results}[
+            "dof-exclusive"]
+        assert clash.status == "fails", (method, clash)
+
+
+def test_a_mission_without_a_handler_has_no_stop_ends() -> None:
+    verdict = verify_mission(_compile("MISSION m { Wait(1 s) }"))
+    assert termination.STOP_NAME not in {r.name for r in verdict.results}
+
+
+@settings(max_examples=40, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(bodies(_leaf(), 2, 4), bodies(_leaf(), 3, 5))
+def test_stop_ends_holds_exactly_when_the_handlers_worst_case_is_finite(
+        body: ast.Block, handler: ast.Block) -> None:
+    compiled = _compile(printer.mission(ast.Mission("m", body, on_stop=handler)), generic=True)
+    on_stop = compiled.checked.mission.on_stop
+    assert on_stop is not None
+    finite = math.isfinite(analyse(compiled.checked, ast.Mission("m", on_stop)).worst)
+    ends = termination.stop_result(compiled.checked)
+    assert ends is not None and not ends.undecided and ends.holds == finite, ends
+    structural_ends = {r.name: r for r in structural.analyse(compiled.checked).results}
+    explicit = {r.name: r for r in verify_mission(compiled, "explicit").results}
+    assert explicit[termination.STOP_NAME].holds == finite
+    # a second stop halts any handler: the stop is safe on both routes
+    assert explicit["stop-safe"].holds and structural_ends["stop-safe"].holds

@@ -32,9 +32,10 @@ def run_dam(*faults: str) -> tuple[list[dict[str, Any]], list[Record], Player]:
 def test_task_calls_are_the_missions_in_source_order() -> None:
     player = Player(compile_file(DAM, require_values=True).net)
     calls = task_calls(player)
-    assert calls[0] == "StartLogs@32:5" and calls[-1] == "StartLogs@53:5"
+    # the last is the stop handler's (ON STOP { Surface() }): a call of the mission like any
+    assert calls[0] == "StartLogs@32:5" and calls[-2:] == ["StartLogs@53:5", "Surface@56:5"]
     lines = [int(c.rpartition("@")[2].split(":")[0]) for c in calls]
-    assert lines == sorted(lines) and len(calls) == len(set(calls)) == 14
+    assert lines == sorted(lines) and len(calls) == len(set(calls)) == 15
 
 
 def test_the_status_follows_the_survey_to_its_end() -> None:
@@ -46,7 +47,8 @@ def test_the_status_follows_the_survey_to_its_end() -> None:
     assert last["fired"] == player.fired and last["run"] == "r1"
     # done = the task calls that fired a transition, against the records
     fired = {r.data["transition"].split(".")[0] for r in records if r.kind == "fire"}
-    assert last["done"] == len(fired & set(task_calls(player))) == last["total"] - 2
+    # never started: the two DO blocks' Surface() and the stop handler's
+    assert last["done"] == len(fired & set(task_calls(player))) == last["total"] - 3
     # the survey was seen running, with the wall-keeping behaviour on, and time only grows
     surveying = [s for s in published
                  if any(r["task"] == "WallInspect@39:13" for r in s["running"])]
