@@ -27,7 +27,7 @@ from typing import Any
 
 os.environ["MAVLINK20"] = "1"  # before pymavlink loads a dialect: MAVLink 2 only
 
-from pymavlink import mavutil  # noqa: E402
+from pymavlink import mavutil as mavutil  # noqa: E402  (re-exported: MAVLink 2 is set)
 
 from aal.mavlink import parse_url  # noqa: E402
 
