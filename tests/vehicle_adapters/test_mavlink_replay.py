@@ -5,7 +5,8 @@ subprocess, the player the MAVLink adapter (:class:`MavlinkVehicle`) with the sa
 ``udpin`` port of its own. The attacker has no key. Two attacks:
 
 - one unsigned datagram at the player's ``udpin`` port: pymavlink made its sender a client and
-  copied every datagram the player sent to it; the player now sends to nobody but the vehicle;
+  copied every datagram the player sent to it; the player now sends to nobody but the vehicle
+  (and a vehicle listening on ``udpin`` to nobody but its ground station);
 - a session captured on the path (a relay between the two records what the player sends),
   replayed at the vehicle restarted with a fresh ``$MCL_STATE_DIR``: pymavlink took it (a new
   stream at most a minute old), armed, went GUIDED and moved; the vehicle now refuses every
@@ -26,11 +27,12 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from aal import signing
+from aal.mavlink_udp import mavutil
 from aal.messages import ActionMessage
 from vehicle_adapters.mavlink.link import MavlinkVehicle
 
-from tests.support import budget, free_udp_port
-from tests.vehicle_adapters.test_mavlink import vehicle_process
+from tests.support import BIN, budget, free_udp_port, started
+from tests.vehicle_adapters.test_mavlink import env, vehicle_process
 
 SIGNED = mavlink.MAVLINK_IFLAG_SIGNED
 GUIDED, ARMED = 4, mavlink.MAV_MODE_FLAG_SAFETY_ARMED
@@ -191,3 +193,33 @@ def test_a_captured_session_cannot_move_a_vehicle_restarted_without_its_state(
     assert (f"0 signed accepted, 0 unsigned accepted, 0 unsigned rejected, {len(capture)} "
             f"badly signed rejected ({len(capture)} of them signed before it started)"
             ) in summary, summary
+
+
+def test_a_listening_vehicle_answers_its_ground_station_and_not_an_intruder(
+        tmp_path: Path) -> None:
+    key_file, key = _key(tmp_path)
+    port = free_udp_port()
+    gcs = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=255,
+                                     source_component=190)
+    signing.enable(gcs, key, require=True, link_id=1, timestamp_file=None)
+    attacker = _udp()
+    intruder = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)  # claims the GCS
+    try:
+        with started([str(BIN / "mcl"), "vehicle", "--mavlink", f"udpin:127.0.0.1:{port}",
+                      "--speed", "10", "--signing-key", str(key_file), "--require-signing"],
+                     env=env(tmp_path)):
+            attacker.sendto(intruder.heartbeat_encode(6, 8, 0, 0, 0).pack(intruder),
+                            ("127.0.0.1", port))
+            heard: list[Any] = []
+            deadline = time.monotonic() + budget(1)
+            while len(heard) < 2 and time.monotonic() < deadline:
+                gcs.mav.heartbeat_send(6, 8, 0, 0, 0)
+                msg = gcs.recv_match(type="HEARTBEAT", blocking=True, timeout=0.2)
+                if msg is not None:
+                    heard.append(msg)
+            copied = _collect(attacker, 1.0)
+    finally:
+        attacker.close()
+        gcs.close()
+    assert len(heard) == 2 and all(h.get_srcSystem() == 1 for h in heard), heard
+    assert copied == [], f"the vehicle copied {len(copied)} datagrams to the intruder"
