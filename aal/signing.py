@@ -17,10 +17,33 @@ The signing timestamp (10 µs units since 2015-01-01) must never go back for one
 other end would reject our messages as replays. The state persists it in a small file (by
 default ``$MCL_STATE_DIR`` or ``~/.local/state/mcl``, one file per key hash and side); a new
 run starts after the timestamp saved by the last one plus a margin covering messages signed
-after that save. Call :meth:`SigningState.save` now and then (every few seconds) and at exit:
-it also moves the timestamp up to the wall clock, as MAVProxy and ArduPilot do, because
-pymavlink only adds one per message and a peer rejects a new stream more than a minute behind
-its own timestamp.
+after that save (:data:`SAVE_MARGIN`, one second: a run never signs ahead of the wall clock by
+more). Call :meth:`SigningState.save` now and then (every few seconds) and at exit: it also
+moves the timestamp up to the wall clock, as MAVProxy and ArduPilot do, because pymavlink only
+adds one per message and a peer rejects a new stream more than a minute behind its own
+timestamp.
+
+Replay across a restart. pymavlink accepts a stream it has not seen (every stream, after a
+restart) when its timestamp is at most a minute behind its own: an end that lost its state (a
+fresh ``$MCL_STATE_DIR``: a reboot on tmpfs, a new container) would obey a capture of the last
+minute. So each end refuses, before pymavlink's checks, every timestamp below a floor: its own
+clock when it started minus a skew, or just above the timestamp its last run saved when that
+is higher. A timestamp floor, not a handshake: MAVLink 2 signing has no challenge to answer,
+and a handshake would be a protocol ArduSub, MAVProxy and QGroundControl do not speak; the
+floor needs only the clock the signing timestamps already come from.
+
+The vehicle's skew is :data:`CLOCK_SKEW`, two seconds: a capture signed more than two seconds
+before the vehicle started is refused. Its ground station does not lag behind it: pymavlink
+moves an end's timestamp up to every signed timestamp it accepts, and the player sends nothing
+before it has heard the vehicle, so it signs on the vehicle's clock (or later, if its own is
+ahead). The player's skew is :data:`PLAYER_CLOCK_SKEW`, pymavlink's minute: it must hear a
+vehicle whose clock is behind its own before the vehicle has heard anything from it (on
+``udpin`` it does not even know where the vehicle is until then). The floor trusts the
+vehicle's real-time clock: a vehicle without one must set it (NTP, GPS) before it starts, or
+keep its state.
+
+A message with a wrong signature leaves its stream's timestamp as it was (pymavlink records it
+before checking the signature, so one forged datagram could block a stream for good).
 """
 
 from __future__ import annotations
@@ -40,7 +63,9 @@ ENV_KEY = "MCL_MAVLINK_KEY"
 ENV_STATE_DIR = "MCL_STATE_DIR"
 EPOCH_2015 = 1420070400  # s: MAVLink signing timestamps count from 2015-01-01 UTC
 TICKS_PER_SECOND = 100_000  # a signing timestamp tick is 10 µs
-SAVE_MARGIN = 60 * TICKS_PER_SECOND  # covers what is signed between two saves (>= 1 per tick)
+SAVE_MARGIN = TICKS_PER_SECOND  # covers what is signed after a save: 100,000 messages (1 tick each)
+CLOCK_SKEW = 2 * TICKS_PER_SECOND  # the vehicle: how far below its clock at start it still accepts
+PLAYER_CLOCK_SKEW = 60 * TICKS_PER_SECOND  # the player: pymavlink's window for a new stream
 MSG_ID_RADIO_STATUS = 109  # may come unsigned even when signing is required (as ArduPilot)
 _HEX_KEY = re.compile(r"[0-9a-fA-F]{64}")
 _KEY_HINT = ("a signing key file holds 64 hexadecimal digits or a passphrase "
@@ -116,6 +141,8 @@ class SigningState:
     require: bool
     timestamp_file: Path | None
     start_timestamp: int = 0  # the first timestamp this run signs with
+    floor: int = 0  # the lowest timestamp this run accepts (replays from before it refused)
+    rejected_old: int = 0  # of rejected_bad: signed below the floor
     accepted_unsigned: int = 0
     rejected_unsigned: int = 0
     rejected_bad: int = 0
@@ -146,6 +173,24 @@ class SigningState:
         self.accepted_unsigned += 1
         return True
 
+    def check_signature(self, msgbuf: bytearray, src_system: int, src_component: int) -> bool:
+        """pymavlink's check of a signed message (installed in its place by :func:`enable`),
+        with two rules first and last: a timestamp below :attr:`floor` is refused, and a
+        message whose signature is wrong leaves its stream's timestamp as it was."""
+        if signature_timestamp(msgbuf) < self.floor:
+            self.rejected_old += 1
+            return False
+        streams = self.mav.signing.stream_timestamps
+        stream = (msgbuf[-13], src_system, src_component)  # (link id, system, component)
+        before = streams.get(stream)
+        if type(self.mav).check_signature(self.mav, msgbuf, src_system, src_component):
+            return True
+        if before is None:
+            streams.pop(stream, None)
+        else:
+            streams[stream] = before
+        return False
+
     def advance(self) -> None:
         """Move the timestamp up to the wall clock (never back).
 
@@ -170,6 +215,12 @@ class SigningState:
                 "rejected_unsigned": self.rejected_unsigned, "rejected_bad": self.rejected_bad}
 
 
+def signature_timestamp(msgbuf: bytes | bytearray) -> int:
+    """The timestamp in a signed message's signature block (its last 13 bytes: link id,
+    timestamp in 6 bytes little-endian, signature in 6)."""
+    return int.from_bytes(bytes(msgbuf[-12:-6]), "little")
+
+
 def saved_timestamp(path: Path | None) -> int:
     """The timestamp a previous run saved in ``path`` (0 when there is none or it is junk)."""
     if path is None:
@@ -181,19 +232,22 @@ def saved_timestamp(path: Path | None) -> int:
 
 
 def enable(conn: Any, key: bytes, *, require: bool, link_id: int,
-           timestamp_file: Path | None) -> SigningState:
-    """Sign everything ``conn`` (a mavutil connection) sends and check what it receives."""
+           timestamp_file: Path | None, skew: int = CLOCK_SKEW) -> SigningState:
+    """Sign everything ``conn`` (a mavutil connection) sends and check what it receives,
+    refusing timestamps ``skew`` ticks or more below this end's clock now."""
     if len(key) != 32:
         raise SigningError(f"a MAVLink signing key has 32 bytes, not {len(key)}")
     if not 0 <= link_id <= 255:
         raise SigningError(f"link id {link_id} is not in 0..255")
     state = SigningState(conn.mav, require, timestamp_file)
-    previous = saved_timestamp(timestamp_file)
-    start = max(wall_timestamp(), previous + SAVE_MARGIN if previous else 0)
+    previous, wall = saved_timestamp(timestamp_file), wall_timestamp()
+    start = max(wall, previous + SAVE_MARGIN if previous else 0)
     state.start_timestamp = start
+    state.floor = max(wall - skew, previous + 1 if previous else 0)
     callback: Callable[[Any, int], bool] = state.allow_unsigned
     conn.setup_signing(key, sign_outgoing=True, allow_unsigned_callback=callback,
                        initial_timestamp=start, link_id=link_id)
+    conn.mav.check_signature = state.check_signature  # the floor first, then pymavlink's
     state._seen_bad = int(conn.mav.signing.badsig_count)
     state.save()
     return state

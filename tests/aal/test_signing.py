@@ -199,3 +199,53 @@ def test_an_empty_key_in_the_environment_names_the_variable(
     monkeypatch.setenv(signing.ENV_KEY, "")
     with pytest.raises(signing.SigningError, match=r"^\$MCL_MAVLINK_KEY: the signing key is empty"):
         signing.load_key(None)
+
+
+# -- a restart that lost its state (issue 22) -------------------------------------------------
+def test_a_restarted_end_with_no_saved_state_refuses_a_capture_older_than_its_start() -> None:
+    """A capture made 30 s before the receiver started (its state lost: no timestamp file) was
+    accepted by pymavlink's rule for a new stream (at most a minute behind); the floor, the
+    receiver's clock at start minus CLOCK_SKEW, refuses it. A message signed now passes."""
+    old, now, receiver = End(1), End(3), End(2)
+    _enable(old)
+    old.mav.signing.timestamp = signing.wall_timestamp() - 30 * signing.TICKS_PER_SECOND
+    capture = [old.heartbeat() for _ in range(3)]
+    _enable(now)
+    state = _enable(receiver)
+    assert state.floor == state.start_timestamp - signing.CLOCK_SKEW
+    assert [receiver.receive(c) for c in capture] == [["BAD_DATA"]] * 3
+    assert (state.rejected_old, state.rejected_bad, state.accepted_signed) == (3, 3, 0)
+    assert receiver.receive(now.heartbeat()) == ["HEARTBEAT"]
+    assert state.accepted_signed == 1
+
+
+def test_a_capture_just_inside_the_skew_passes_and_just_below_the_floor_does_not() -> None:
+    receiver = End(2)
+    state = _enable(receiver)
+    for offset, expected in ((0, ["HEARTBEAT"]), (-1, ["BAD_DATA"])):
+        sender = End(1 + (offset < 0) * 2)  # two streams: each is new to the receiver
+        _enable(sender)
+        sender.mav.signing.timestamp = state.floor + offset
+        assert receiver.receive(sender.heartbeat()) == expected, offset
+    assert state.rejected_old == 1
+
+
+def test_with_its_state_kept_the_floor_is_above_the_last_timestamp_saved(tmp_path: Path) -> None:
+    stamp = tmp_path / "vehicle.timestamp"
+    ahead = signing.wall_timestamp() + 600 * signing.TICKS_PER_SECOND
+    stamp.write_text(f"{ahead}\n", "ascii")
+    state = _enable(End(2), timestamp_file=stamp)
+    assert state.floor == ahead + 1
+
+
+def test_a_forged_signature_does_not_move_its_stream_timestamp() -> None:
+    """pymavlink records a stream's timestamp before it checks the signature: one datagram with
+    a wrong signature and the largest timestamp blocked the real sender's stream for good."""
+    sender, forger, receiver = End(1), End(1), End(2)
+    _enable(sender)
+    _enable(forger, hashlib.sha256(b"not the key").digest())
+    forger.mav.signing.timestamp = 2**48 - 2  # the largest a signature block holds
+    state = _enable(receiver)
+    assert receiver.receive(forger.heartbeat()) == ["BAD_DATA"]
+    assert receiver.receive(sender.heartbeat()) == ["HEARTBEAT"]
+    assert (state.rejected_bad, state.accepted_signed) == (1, 1)

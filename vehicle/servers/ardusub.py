@@ -9,6 +9,8 @@ whose command line is in ``app/vehicle.py``).
 listening there, e.g. ``mcl run ... --vehicle mavlink:udpin:127.0.0.1:14550``), ``udpin:``
 or ``udp:HOST:PORT`` (listen), ``tcp:HOST:PORT`` (connect) or ``tcpin:HOST:PORT`` (listen).
 A bad URL, an unusable address or an unreadable key file is a one-line error, exit status 2.
+Listening (``udpin:``), it sends only to the ground station whose messages it accepted
+(:class:`aal.mavlink_udp.PeerUdp`).
 When ready the vehicle prints ``vehicle auv ready on URL``; on SIGTERM or SIGINT it stops and
 prints its survey summary (path length, wall area imaged, against the simulation's truth), its
 command counts and, with signing, its signing counts.
@@ -40,7 +42,10 @@ and rejects badly signed messages; ``--require-signing`` also rejects unsigned o
 RADIO_STATUS, as ArduPilot). The counts go out with every HEARTBEAT as NAMED_VALUE_INT
 ``SIG_OK`` (good signatures), ``SIG_UNSIGN`` (unsigned rejected), ``SIG_BAD`` (bad signatures
 rejected), and are printed at exit. The signing timestamp is kept in
-``$MCL_STATE_DIR`` (default ``~/.local/state/mcl``), saved every 5 s and at exit.
+``$MCL_STATE_DIR`` (default ``~/.local/state/mcl``), saved every 5 s and at exit. A vehicle
+that lost that state refuses every message signed more than 2 s before it started (its clock
+at start is the floor, :data:`aal.signing.CLOCK_SKEW`): a captured session cannot be replayed
+at it after a restart; the summary counts them ("of them signed before it started").
 """
 
 from __future__ import annotations
@@ -61,7 +66,7 @@ os.environ["MAVLINK20"] = "1"  # before pymavlink picks its dialect: MAVLink 2 o
 
 from pymavlink import mavutil  # noqa: E402
 
-from aal import signing  # noqa: E402
+from aal import mavlink_udp, signing  # noqa: E402
 from aal.mavlink import GCS_SYSID, MODE_NAMES, MODES, VEHICLE_SYSID, parse_url  # noqa: E402
 # the autopilot's texts, as the tests and the docs look them up here
 from aal.mavlink import GCS_TEXT as GCS_TEXT  # noqa: E402
@@ -145,9 +150,9 @@ class ArduSubVehicle(ArduSubAutopilot):
         chatter = io.StringIO()  # pymavlink prints its retries; keep stdout for our lines
         try:
             with contextlib.redirect_stdout(chatter):
-                self.conn = mavutil.mavlink_connection(
+                self.conn = mavlink_udp.connect(
                     self.url, source_system=SYSID, source_component=COMPID,
-                    dialect="ardupilotmega")
+                    peer_system=GCS_SYSID)
         finally:
             log.debug("pymavlink: %s", chatter.getvalue().strip())
         try:
@@ -306,5 +311,6 @@ class ArduSubVehicle(ArduSubAutopilot):
             c = self.signing.counts()
             lines.append(f"  signing: {c['signed']} signed accepted, {c['unsigned']} unsigned "
                          f"accepted, {c['rejected_unsigned']} unsigned rejected, "
-                         f"{c['rejected_bad']} badly signed rejected")
+                         f"{c['rejected_bad']} badly signed rejected "
+                         f"({self.signing.rejected_old} of them signed before it started)")
         return lines

@@ -2,7 +2,9 @@
 
 MAVLink 2, dialect ardupilotmega; the player is a ground station (sysid 255, compid 190,
 MAV_COMP_ID_MISSIONPLANNER) talking to the vehicle's autopilot (sysid 1, compid 1). Opening
-makes the connection (URL as pymavlink writes it) and enables signing if a key is given.
+makes the connection (URL as pymavlink writes it) and enables signing if a key is given. On
+``udpin:`` it sends only to the address the vehicle's accepted messages come from
+(:class:`aal.mavlink_udp.PeerUdp`), never to whoever else sent it a datagram.
 
 The reader thread hands every message from the vehicle to the adapter and does the periodic
 work of a ground station: once the vehicle has been heard, the GCS HEARTBEAT (1 Hz) and a
@@ -30,7 +32,7 @@ os.environ["MAVLINK20"] = "1"  # before pymavlink loads a dialect: MAVLink 2 onl
 from pymavlink import mavutil as mavutil  # noqa: E402
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
-from aal import signing  # noqa: E402
+from aal import mavlink_udp, signing  # noqa: E402
 from aal.mavlink import GCS_SYSID, VEHICLE_SYSID, parse_url  # noqa: E402
 from diagnostics import Diagnostic, MclError  # noqa: E402
 
@@ -87,9 +89,9 @@ class Connection:
     def open(self) -> None:
         """Make the connection and enable signing; MavlinkError if it cannot be opened."""
         try:
-            self.conn = mavutil.mavlink_connection(
+            self.conn = mavlink_udp.connect(
                 self.url, source_system=GCS_SYSID, source_component=GCS_COMPID,
-                dialect="ardupilotmega", autoreconnect=False, retries=0)
+                peer_system=VEHICLE_SYSID, autoreconnect=False, retries=0)
         except (OSError, ValueError) as exc:
             raise MavlinkError(f"--vehicle mavlink:{self.url}: cannot open it: {exc}",
                                "is another program using that port?") from None
@@ -99,7 +101,8 @@ class Connection:
             try:
                 self.signing = signing.enable(self.conn, self.signing_key,
                                               require=self.require_signing, link_id=1,
-                                              timestamp_file=path)
+                                              timestamp_file=path,
+                                              skew=signing.PLAYER_CLOCK_SKEW)
             except BaseException:
                 self.close()
                 raise
