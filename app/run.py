@@ -39,7 +39,7 @@ from mission.run import NotVerified, NoVehicle, RunResult, run_mission
 from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 
-from app import vehicles
+from app import arguments, vehicles
 from app.guard import guarded
 from app.mclc import OutputError
 from app.safe_exit import Output, ReportCut, Stops
@@ -55,7 +55,8 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
     r.add_argument("mission", metavar="MISSION.mcl")
     r.add_argument("--vehicle", default="sim", metavar="KIND[:WHERE]",
                    help=vehicles.help_text())
-    r.add_argument("--seed", type=int, default=1, help="random seed of the simulated vehicle")
+    r.add_argument("--seed", type=arguments.seed, default=1,
+                   help="random seed of the simulated vehicle (0 to 2**64 - 1)")
     r.add_argument("--inject", action="append", default=[], metavar="FAULT@SECONDS",
                    help="a sensor fault at a mission time: leak@600, overtemperature@300, "
                         "overpressure@900, or burial@60 (every seabed line under sand from then on; "
