@@ -2,7 +2,7 @@
 5): a scripted vehicle whose ``data`` is not a table, TOML nested 100,000 deep, behaviour
 names that look like regular expressions (``"Go(To"``, ``"(x+x+)+y"``: a name is never used
 as a pattern), files read without a limit (``script:/dev/zero``), ``--seed -1``, ``--speed
-1e308``; then a Hypothesis fuzz of ``mcl run``'s options and of ``mclc``'s files with such
+1e308``, ``--signing-key /dev/zero``, ``--users /dev/zero``; then a Hypothesis fuzz of ``mcl run``'s options and of ``mclc``'s files with such
 values.
 """
 
@@ -78,6 +78,16 @@ ONE_LINERS: dict[str, tuple[Callable[[Path], list[str]], str]] = {
     "mavlink --speed 1e308": (lambda f: ["vehicle", "--mavlink", "udpout:127.0.0.1:14550",
                                          "--speed", "1e308"],
                               "mcl vehicle: error: --speed 1e+308: must be at most 1000"),
+    "--signing-key /dev/zero": (lambda f: ["vehicle", "--mavlink", "udpout:127.0.0.1:14550",
+                                           "--signing-key", "/dev/zero"],
+                                "mcl vehicle: error: /dev/zero: larger than 65,536 bytes"),
+    "run --signing-key /dev/zero": (lambda f: ["run", f"{f}/m.mcl", "--vehicle",
+                                               "mavlink:udpin:127.0.0.1:14550",
+                                               "--signing-key", "/dev/zero"],
+                                    "/dev/zero: error: larger than 65,536 bytes"),
+    "--users /dev/zero": (lambda f: ["vehicle", "--zenoh", "tcp/127.0.0.1:7447", "--users",
+                                     "/dev/zero"],
+                          "mcl vehicle: error: --users /dev/zero: larger than 1,048,576"),
 }
 
 
