@@ -97,11 +97,18 @@ def key_from_text(text: str, where: str) -> bytes:
     return hashlib.sha256(text.encode("utf-8")).digest()
 
 
+MAX_KEY_BYTES = 64 * 1024  # a signing key file: 64 hex digits, or a passphrase
+
+
 def load_key(path: str | None) -> bytes | None:
     """The signing key from the file ``path``, else from ``$MCL_MAVLINK_KEY``, else None."""
     if path is not None:
         try:
-            text = Path(path).read_text(encoding="utf-8")
+            with open(path, "rb") as f:  # with a limit: --signing-key /dev/zero
+                raw = f.read(MAX_KEY_BYTES + 1)
+            if len(raw) > MAX_KEY_BYTES:
+                raise _refuse(path, f"larger than {MAX_KEY_BYTES:,} bytes: not a signing key")
+            text = raw.decode("utf-8")
         except FileNotFoundError:
             raise _refuse(path, "no such signing key file") from None
         except IsADirectoryError:

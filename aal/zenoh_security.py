@@ -142,10 +142,25 @@ def _tls_files(ca: str | None, cert: str | None, key: str | None
     return ca_pem, cert_pem, key_pem
 
 
+MAX_FILE_BYTES = 1 << 20  # a PEM file, a password, a user list: far less than 1 MiB
+
+
+def read_small(option: str, name: str, encoding: str = "utf-8", errors: str = "strict") -> str:
+    """The text of the file ``name`` given to ``option``, read with a size limit
+    (``--users /dev/zero`` is refused, not read for ever); OSError, UnicodeDecodeError or a
+    ValueError naming the option."""
+    with open(name, "rb") as f:
+        data = f.read(MAX_FILE_BYTES + 1)
+    if len(data) > MAX_FILE_BYTES:
+        raise ValueError(f"{option} {name}: larger than {MAX_FILE_BYTES:,} bytes: not what "
+                         f"{option} takes")
+    return data.decode(encoding, errors)
+
+
 def _pem(option: str, name: str) -> Path:
     path = Path(name)
     try:
-        text = path.read_text("ascii", errors="replace")
+        text = read_small(option, name, "ascii", errors="replace")
     except OSError as exc:
         raise ValueError(f"{option} {name}: cannot read it ({exc.strerror})") from None
     if "-----BEGIN " not in text:
@@ -157,7 +172,7 @@ def _pem(option: str, name: str) -> Path:
 def read_password(name: str) -> str:
     """The password on the first line of ``name`` (spaces at its ends removed, as Zenoh does)."""
     try:
-        lines = Path(name).read_text("utf-8").splitlines()
+        lines = read_small("--password-file", name).splitlines()
     except OSError as exc:
         raise ValueError(f"--password-file {name}: cannot read it ({exc.strerror})") from None
     except UnicodeDecodeError:
@@ -175,7 +190,7 @@ def read_users(name: str) -> tuple[str, ...]:
     blank lines skipped) and has no comments; a mistake is reported as ``file:line: ...``.
     """
     try:
-        text = Path(name).read_text("utf-8")
+        text = read_small("--users", name)
     except OSError as exc:
         raise ValueError(f"--users {name}: cannot read it ({exc.strerror})") from None
     except UnicodeDecodeError:

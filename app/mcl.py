@@ -19,6 +19,7 @@ import sys
 from collections.abc import Callable
 from typing import cast
 
+from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
 from app.version import version_text
 from mission.exits import Exit
 
@@ -48,18 +49,22 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else list(argv)
+    open_standard_streams()
     try:
-        if args and args[0] in COMMANDS:
-            module = importlib.import_module(COMMANDS[args[0]][0])
-            command = cast(Callable[[list[str]], int], module.main)
-            return command(args[1:])
-        _parser().parse_args(args)  # --help, or a usage error (exit 2)
-        return Exit.INVALID
-    except BrokenPipeError:
-        from app.mclc import stdout_closed
-
+        with watched_stdout():
+            if args and args[0] in COMMANDS:
+                module = importlib.import_module(COMMANDS[args[0]][0])
+                command = cast(Callable[[list[str]], int], module.main)
+                return command(args[1:])
+            _parser().parse_args(args)  # --help, or a usage error (exit 2)
+            return Exit.INVALID
+    except BrokenPipeError as exc:  # a closed pipe: quietly; a full disk: one line
         stdout_closed()
-        return Exit.OK
+        line = lost_line(f"mcl {args[0]}" if args and args[0] in COMMANDS else "mcl", exc)
+        if line is None:
+            return Exit.OK
+        print(line, file=sys.stderr)
+        return Exit.INVALID
 
 
 if __name__ == "__main__":

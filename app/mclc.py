@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
 import sys
 import traceback
@@ -21,6 +20,7 @@ from typing import Any
 from diagnostics import Diagnostic, MclError, Span
 from mcl.api import Compiled, compile_file, parse_params
 
+from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
 from app.version import version_text
 from mission.exits import Exit  # the exit statuses of every command: docs/EXIT.md
 
@@ -151,26 +151,21 @@ def check_output(path: str, option: str) -> None:
         raise OutputError(path, option, f"{str(folder)!r} is not a folder")
 
 
-def stdout_closed() -> None:
-    """Standard output was closed (``mclc ... | head -1``): point it at the null device, so
-    that nothing more is written and the flush at exit is silent (Python's docs, "Note on
-    SIGPIPE")."""
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        os.close(devnull)
-    except (AttributeError, OSError, ValueError):  # not a real file (tests capture it)
-        sys.stdout = open(os.devnull, "w", encoding="utf-8")  # noqa: SIM115
-
-
 def main(argv: list[str] | None = None) -> int:
-    """The command; a closed standard output ends it quietly with the status so far."""
+    """The command; a closed standard output ends it quietly with the status so far, one
+    that cannot be written (a full disk) with one line and exit 2."""
+    open_standard_streams()
     worst = [Exit.OK]
     try:
-        return _main(argv, worst)
-    except BrokenPipeError:
+        with watched_stdout():
+            return _main(argv, worst)
+    except BrokenPipeError as exc:
         stdout_closed()
-        return worst[0]
+        line = lost_line("mclc", exc)
+        if line is None:
+            return worst[0]
+        print(line, file=sys.stderr)
+        return max(worst[0], Exit.INVALID, key=SEVERITY.index)
 
 
 def _main(argv: list[str] | None, so_far: list[Exit]) -> int:

@@ -24,10 +24,13 @@ ok at 131.2 s, started at 102.0 s (proved bound 300 s)``).
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import sys
 import time
+import traceback
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -40,10 +43,10 @@ from mission.stop_handler import text as stop_text
 from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 
-from app import vehicles
+from app import arguments, vehicles
 from app.guard import guarded
 from app.mclc import OutputError
-from app.safe_exit import Output, Stops
+from app.safe_exit import Output, ReportCut, Stops
 
 if TYPE_CHECKING:
     from vehicle.control.stack import IctineuStack
@@ -56,7 +59,8 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
     r.add_argument("mission", metavar="MISSION.mcl")
     r.add_argument("--vehicle", default="sim", metavar="KIND[:WHERE]",
                    help=vehicles.help_text())
-    r.add_argument("--seed", type=int, default=1, help="random seed of the simulated vehicle")
+    r.add_argument("--seed", type=arguments.seed, default=1,
+                   help="random seed of the simulated vehicle (0 to 2**64 - 1)")
     r.add_argument("--inject", action="append", default=[], metavar="FAULT@SECONDS",
                    help="a sensor fault at a mission time: leak@600, overtemperature@300, "
                         "overpressure@900, or burial@60 (every seabed line under sand from then on; "
@@ -151,7 +155,8 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
     _warn_late_faults(compiled, args.inject, args.max_time)
     log_path = Path(args.log) if args.log else Path("out/runs") / (
         f"{Path(args.mission).stem}-{time.strftime('%Y%m%d-%H%M%S')}.jsonl")
-    if chosen.stack is not None and not args.no_images:  # the camera's images, beside the log
+    beside = _beside(log_path)
+    if chosen.stack is not None and not args.no_images and beside:  # the camera's images
         from mosaic.hook import attach  # here for start-up speed: only a simulated run needs it
 
         attach(chosen.stack, log_path)
@@ -160,6 +165,17 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
     clock = MissionClock()
     out = Output()
     stops = Stops(STOP_SIGNALS)
+    try:
+        return _run_and_report(args, compiled, chosen, log_path, header, clock, out, stops)
+    finally:
+        stops.restore()
+
+
+def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicle,
+                    log_path: Path, header: dict[str, Any], clock: MissionClock, out: Output,
+                    stops: Stops) -> int:
+    """Run the mission, then report on it; what goes wrong in the report (a full disk, its
+    folder removed, a signal) never changes the exit status the end record says."""
     try:
         result = run_mission(
             compiled, chosen, log=log_path, header=header, max_time=args.max_time,
@@ -173,8 +189,38 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
         print(f"{args.mission}: not verified ({', '.join(exc.failed)}): refusing to run it\n"
               f"  hint: see 'mclc {args.mission}'; --no-verify runs it anyway", file=sys.stderr)
         return Exit.FAILED
-    _summary(args.mission, result, chosen, out, log_path)
+    if result.unwritten is not None:  # the end record's last possible stand-in
+        _stand_in(log_path, result)
+    try:
+        _summary(args.mission, result, chosen, out, log_path)
+    except ReportCut as cut:
+        _warn(cut.line())
+    except Exception as exc:  # noqa: BLE001 - the run has ended: its status stands
+        if args.debug:
+            traceback.print_exc()
+        _warn(f"mcl run: the report after the run failed: {type(exc).__name__}: {exc} "
+              "(the run log's end record stands)")
     return result.exit
+
+
+def _beside(log_path: Path) -> bool:
+    """Whether files may go beside the run log (its images, its plots): not beside a device
+    or a FIFO (``--log /dev/null`` writes no ``/dev/null.svg``)."""
+    return not log_path.exists() or log_path.is_file()
+
+
+def _stand_in(log_path: Path, result: RunResult) -> None:
+    """The end record the run log could not take, on standard error: its last stand-in."""
+    _warn(f"mcl run: {result.log_failure}: {log_path} is incomplete; its end record: "
+          f"{json.dumps(result.unwritten, default=str, separators=(',', ':'))}")
+
+
+def _warn(line: str) -> None:
+    """A line on standard error, never raising (it may be closed or full too)."""
+    try:
+        print(line, file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        pass
 
 
 def _waiting(where: str, seconds: float) -> None:
@@ -206,7 +252,8 @@ def _summary(mission: str, result: RunResult, chosen: Vehicle, out: Output,
     if result.status not in ("ok", "fail") or result.switched_off:
         out.say(f"  switched off: {', '.join(result.switched_off) or 'nothing was on'}; "
                 f"{result.confirmed}")
-    out.say(f"  run log: {log_path}")
+    out.say(f"  run log: {log_path}" + (f" (incomplete: {result.log_failure})"
+                                        if result.log_failure else ""))
     if chosen.summary is not None:  # what went over a MAVLink link
         out.say("  link: " + ", ".join(f"{k} {v}" for k, v in chosen.summary.summary().items()
                                        if v is not None))
@@ -223,8 +270,7 @@ def _summary(mission: str, result: RunResult, chosen: Vehicle, out: Output,
 def _report_survey(stack: IctineuStack, log_path: Path, name: str, out: Any) -> None:
     """The simulated run's figures against ground truth, and the trajectory plot."""
     s = stack.survey.summary()
-    plot = log_path.with_suffix(".svg")
-    plot.write_text(stack.survey.svg(name), encoding="utf-8")
+    plot = _plot(log_path.with_suffix(".svg"), lambda: stack.survey.svg(name), log_path)
     seabed = stack.seabed
     # the wall lines only for a run that saw the wall (not a seabed run, nor a dive)
     wall = s["wall_area_imaged_m2"] > 0 or not math.isnan(s["wall_distance_rms_m"])
@@ -242,9 +288,19 @@ def _report_survey(stack: IctineuStack, log_path: Path, name: str, out: Any) -> 
         seabed.finish(stack.t)
         for line in seabed.report():
             out.say(line)
-        lines_plot = log_path.with_suffix(".seabed.svg")
-        lines_plot.write_text(seabed.svg(name), encoding="utf-8")
-        out.say(f"  line plot: {lines_plot}")
+        lines = _plot(log_path.with_suffix(".seabed.svg"), lambda: seabed.svg(name), log_path)
+        out.say(f"  line plot: {lines}")
+
+
+def _plot(path: Path, svg: Callable[[], str], log_path: Path) -> str:
+    """Write a plot beside the run log; where it is, or why it is not."""
+    if not _beside(log_path):
+        return "not written (the run log is not a file)"
+    try:
+        path.write_text(svg(), encoding="utf-8")
+    except OSError as exc:
+        return f"not written: {exc.strerror or exc} ({path})"
+    return str(path)
 
 
 class _Timeline:

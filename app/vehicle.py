@@ -21,7 +21,7 @@ from collections.abc import Sequence
 
 from mission.exits import Exit
 
-from app import zenoh_options
+from app import arguments, zenoh_options
 
 LOG_LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL")
 
@@ -63,7 +63,7 @@ def _zenoh_parser() -> argparse.ArgumentParser:
                    help=f"endpoint to listen on (default {DEFAULT_ENDPOINT})")
     p.add_argument("--name", default="auv", help="vehicle name in the keys (default auv)")
     p.add_argument("--speed", type=float, default=10.0, help="times wall time (default 10)")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=arguments.seed, default=1)
     p.add_argument("--inject", action="append", default=[], type=fault_argument,
                    metavar="FAULT@SECONDS")
     p.add_argument("--player-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
@@ -124,6 +124,8 @@ def _zenoh_problem(args: argparse.Namespace) -> str | None:
     for option, value in (("--speed", args.speed), ("--player-timeout", args.player_timeout)):
         if not (math.isfinite(value) and value > 0):
             return f"{option} {value:g}: error: must be a positive number"
+    if args.speed > arguments.MAX_SPEED:  # 1e308 fired every timer at once
+        return f"--speed {args.speed:g}: error: must be at most {arguments.MAX_SPEED:g}"
     if args.log_level.upper() not in LOG_LEVELS:
         return (f"--log-level {args.log_level}: error: use DEBUG, INFO, WARNING, ERROR or "
                 "CRITICAL")
@@ -140,7 +142,7 @@ def _mavlink_parser() -> argparse.ArgumentParser:
     p.add_argument("--mavlink", required=True, metavar="URL",
                    help="udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT or tcpin:HOST:PORT")
     p.add_argument("--speed", type=float, default=10.0, help="times wall time (default 10)")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=arguments.seed, default=1)
     p.add_argument("--inject", action="append", default=[], type=fault_argument,
                    metavar="FAULT@SECONDS")
     p.add_argument("--gcs-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
@@ -168,6 +170,9 @@ def mavlink_main(argv: list[str]) -> int:
         url = ardusub.check_url(args.mavlink)
         if not (args.speed > 0 and math.isfinite(args.speed)):
             raise ValueError(f"--speed {args.speed}: must be a positive number")
+        if args.speed > arguments.MAX_SPEED:  # 1e308 fired every timer at once
+            raise ValueError(f"--speed {args.speed:g}: must be at most "
+                             f"{arguments.MAX_SPEED:g}")
         key = signing.load_key(args.signing_key)
         if args.require_signing and key is None:
             raise ValueError(f"--require-signing needs a key: --signing-key FILE or "

@@ -131,6 +131,28 @@ def file_error(name: str, message: str, hint: str = "", code: str = "") -> MclEr
     return MclError(Diagnostic("error", message, Span(name, 1, 1), hint, "", code))
 
 
+def read_limited(path: str, limit: int, what: str) -> bytes:
+    """The bytes of the file at ``path``, read with a size limit (``/dev/zero`` is refused, not
+    read for ever): an :class:`MclError` if it is missing, unreadable or larger than ``limit``
+    bytes (``what``: what the file should be, for the message)."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read(limit + 1)
+    except FileNotFoundError:
+        raise file_error(path, "no such file", f"give the path of {what}",
+                         code="missing-file") from None
+    except IsADirectoryError:
+        raise file_error(path, "is a directory, not a file", f"give the path of {what}",
+                         code="directory") from None
+    except OSError as exc:
+        raise file_error(path, f"cannot be read: {exc.strerror or exc}",
+                         "check the file's permissions", code="unreadable") from None
+    if len(data) > limit:
+        raise file_error(path, f"is larger than {limit:,} bytes: not {what}",
+                         f"give the path of {what}", code="too-large")
+    return data
+
+
 def read_source(path: str) -> Source:
     """Read a text file for parsing, turning every way it can go wrong into an MclError."""
     import os

@@ -25,7 +25,9 @@ The steps, in order:
    ``Link.lost`` for the mission, as a loss later is; a remote vehicle's own declaration
    is checked again (a refusal now is logged: the end record says ``refused``, exit 2);
 5. the player and the runner (:func:`petri.execution.runner.run`), which end every run that
-   does not end by itself through the mission's abort;
+   does not end by itself through the mission's abort; a run log that cannot be written (a
+   full disk, its folder removed) is one reason (:mod:`mission.logwriter`: ``how: "log
+   failed"``, exit 4, the end record handed back as ``RunResult.unwritten``);
 6. the end record: how and why the run ended, its exit status (:mod:`mission.exits`), what was
    switched off and what the vehicle confirmed of it, and every event a CATCH handled
    (``handled``: :mod:`mission.handled`). A handled alarm does not change the exit status: a
@@ -41,6 +43,7 @@ state. Several runs go side by side in one process, one thread each (examples/tw
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping
@@ -61,6 +64,7 @@ from mission.exits import Exit, run_exit
 from mission.stop_handler import StopWatch, as_record, bound
 from mission.handled import CatchWatch, Handled
 from mission.limits import max_time as time_bound
+from mission.logwriter import LogUnwritable, LogWriter
 from mission.vehicle import Answers, Vehicle
 
 if TYPE_CHECKING:
@@ -80,6 +84,7 @@ class Stop:
     reason: str
     signal: int | None = None
     count: int = 1  # the how-many-th request this is: a new one halts the stop handler
+    how: str = "signal"  # the end record's how for a run this stopped
 
 
 class NotVerified(MclError):
@@ -125,6 +130,9 @@ class RunResult:
     #                                            differs from mission time
     handled: tuple[Handled, ...] = ()  # every event a CATCH handled, in order
     stop_handler: dict[str, Any] | None = None  # how the ON STOP handler went, if it ran
+    unwritten: Mapping[str, Any] | None = None  # the end record the run log could not take
+    #   (a full disk, its folder removed): the caller puts it where it still can
+    log_failure: str = ""  # why the run log is incomplete ("": it is whole)
 
     @property
     def ok(self) -> bool:
@@ -177,7 +185,7 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     with contextlib.ExitStack() as held:
         if during is not None:
             held.enter_context(during)
-        opened = held.enter_context(RunLog(log, about)) if log is not None else None
+        opened = held.enter_context(_open_log(log, about)) if log is not None else None
         outcome = play.run(opened, observers, limit[0], stop, waiting)
         result = play.result(outcome, end_note, limit, opened)
         if opened is not None:
@@ -189,7 +197,25 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
                        handled=[h.as_record() for h in result.handled],
                        **({"stop_handler": result.stop_handler} if result.stop_handler
                           else {}))
+            if opened.unwritten is not None:
+                result = dataclasses.replace(result, unwritten=opened.unwritten,
+                                             log_failure=opened.failure)
     return result
+
+
+@contextlib.contextmanager
+def _open_log(path: str | Path, about: dict[str, Any]) -> Iterator[LogWriter]:
+    """The run log, open, behind its :class:`LogWriter`; one whose header cannot be written
+    is :class:`LogUnwritable`."""
+    try:
+        log = RunLog(path, about)
+    except OSError as exc:
+        raise LogUnwritable(path, exc) from None
+    try:
+        yield LogWriter(log)
+    finally:
+        with contextlib.suppress(OSError):  # what a full disk did not take: said already
+            log.close()
 
 
 @contextlib.contextmanager
@@ -231,7 +257,7 @@ class _Play:
     def seen(self, record: Record) -> None:
         self.last_t = record.t
 
-    def run(self, opened: RunLog | None, observers: Iterable[Callable[[Record], None]],
+    def run(self, opened: LogWriter | None, observers: Iterable[Callable[[Record], None]],
             limit: float, stop: Callable[[], Stop | str | None] | None,
             waiting: Callable[[str, float], None] | None = None) -> Outcome:
         """Connect, check the vehicle's own word, and run; no vehicle, a refusal or a bug of
@@ -258,7 +284,7 @@ class _Play:
                         vehicle_time=self.clock.vehicle))
                 player.observers.extend(observers)
                 return run(player, chosen.adapter, self.name, max_time=limit,
-                           stop=self.asking(stop), clock=self.clock,
+                           stop=self.asking(stop, opened), clock=self.clock,
                            stop_bound=bound(self.compiled.checked))
         except NoVehicle as exc:  # the mission never started: nothing was sent
             if opened is not None:
@@ -277,16 +303,18 @@ class _Play:
                            f"{exc}", exit=Exit.INTERNAL, status=player.status)
             raise
 
-    def asking(self, stop: Callable[[], Stop | str | None] | None
-               ) -> Callable[[], str | None] | None:
+    def asking(self, stop: Callable[[], Stop | str | None] | None,
+               opened: LogWriter | None = None) -> Callable[[], str | None] | None:
         """The runner's ``stop``: the reason of a new request (None: none since the last), the
-        requests remembered. A request is new when its ``count`` or its reason differs from
-        the last one's."""
-        if stop is None:
+        requests remembered; a run log that cannot be written asks for one too. A request is
+        new when its ``count`` or its reason differs from the last one's."""
+        if stop is None and opened is None:
             return None
 
         def reason() -> str | None:
-            asked = stop()
+            failed = opened.stop() if opened is not None else None
+            asked: Stop | str | None = (Stop(failed, how="log failed") if failed
+                                        else stop() if stop is not None else None)
             if asked is None:
                 return None
             request = asked if isinstance(asked, Stop) else Stop(str(asked))
@@ -299,7 +327,7 @@ class _Play:
         return reason
 
     def result(self, outcome: Outcome, end_note: Callable[[], str | None] | None,
-               limit: tuple[float, str], opened: RunLog | None) -> RunResult:
+               limit: tuple[float, str], opened: LogWriter | None) -> RunResult:
         """The run's result, as its end record will say it."""
         link = self.chosen.link
         why = outcome.reason or ("the mission ended " + outcome.status.upper())
@@ -309,10 +337,12 @@ class _Play:
         if note:
             why += "; " + note
         signum = self.stopped[0].signal if self.stopped else None
+        how = HOW.get(outcome.status, outcome.status)
+        if outcome.status == "stopped" and self.stopped:
+            how = self.stopped[0].how
         clock = self.clock
         return RunResult(
-            mission=self.name, status=outcome.status,
-            how=HOW.get(outcome.status, outcome.status), time=outcome.time,
+            mission=self.name, status=outcome.status, how=how, time=outcome.time,
             reason=outcome.reason, why=why, exit=int(run_exit(outcome.status, signum)),
             firings=self.player.fired, switched_off=tuple(outcome.switched_off),
             confirmed=outcome.confirmed, limit=limit[0], limit_from=limit[1],

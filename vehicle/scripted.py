@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from aal.messages import ActionMessage, EventMessage
-from diagnostics import MclError, Span
+from diagnostics import MclError, Span, read_limited
 
 Key = tuple[str | int, ...]  # where in the TOML document: ("at", 2, "time")
 
@@ -91,16 +91,26 @@ class Script:
     text: str = ""  # the file's text, for the lines of errors
 
 
+MAX_SCRIPT_BYTES = 1 << 20  # a scripted vehicle's file: 1 MiB is far more than any needs
+
+
 def load_script(path: str) -> Script:
-    try:
-        with open(path, "rb") as f:
-            raw = f.read()
-        doc = tomllib.loads(raw.decode("utf-8"))
-    except FileNotFoundError:
+    if not os.path.exists(path):
         raise ScriptError(f"{path}: no such file", span=Span.of_file(path),
-                          detail="no such file") from None
+                          detail="no such file")
+    try:
+        raw = read_limited(path, MAX_SCRIPT_BYTES, "a scripted vehicle's TOML file")
+    except MclError as exc:
+        message = exc.diagnostics[0].message
+        raise ScriptError(f"{path}: {message}", span=Span.of_file(path), detail=message,
+                          hint=exc.diagnostics[0].hint) from None
+    try:
+        doc = tomllib.loads(raw.decode("utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise _toml_error(path, raw.decode("utf-8"), exc) from None
+    except RecursionError:  # tables or arrays nested thousands deep
+        raise ScriptError(f"{path}: not valid TOML: nested too deeply", span=Span.of_file(path),
+                          detail="not valid TOML: nested too deeply", code="toml") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ScriptError(f"{path}: cannot be read: {exc}", span=Span.of_file(path),
                           detail=f"cannot be read: {exc}") from None
@@ -154,7 +164,8 @@ def parse_script(doc: dict[str, Any], path: str = "<script>") -> Script:
                 p.isidentifier() for p in event.split(".")):
             raise ScriptError(f"{where}.event: must be 'Source.name', e.g. 'Alarms.leak'",
                               key=("at", i, "event"))
-        script.at.append((t, event, dict(item.get("data") or {})))
+        script.at.append((t, event, _data(item.get("data"), f"{where}.data",
+                                          ("at", i, "data"))))
     return script
 
 
@@ -164,7 +175,8 @@ def check_script(script: Script, declared: Mapping[str, Sequence[str]],
     -> its events, from the libraries in ``script.tasks``); else ScriptError at its line."""
     libraries = ", ".join(script.tasks)
     for name, answers in script.answers.items():
-        line, col = _place(script.text, rf"^\s*\[\s*behaviours\.{name}\s*\]|\b{name}\b")
+        named = re.escape(name)  # a name is never a pattern: "Go(To", "(x+x+)+y"
+        line, col = _place(script.text, rf"^\s*\[\s*behaviours\.{named}\s*\]|(?<!\w){named}(?!\w)")
         if name not in declared:
             raise _unknown(script, line, col, f"behaviour '{name}' is not declared by this "
                            f"vehicle's task libraries ({libraries})",
@@ -172,7 +184,7 @@ def check_script(script: Script, declared: Mapping[str, Sequence[str]],
                            "more with tasks = [...]")
         for answer in answers:
             if answer.event not in declared[name]:
-                eline, ecol = _place(script.text, rf'"{answer.event}"', after=line)
+                eline, ecol = _place(script.text, rf'"{re.escape(answer.event)}"', after=line)
                 raise _unknown(script, eline, ecol, f"behaviour {name} has no event "
                                f"'{answer.event}' ({libraries})",
                                f"its events: {', '.join(declared[name]) or 'none'}")
@@ -211,7 +223,17 @@ def _answer(item: Any, where: str, key: Key = ()) -> Answer:
         raise ScriptError(f"{where}.event: must be an event name such as 'reached'",
                           key=(*key, "event"))
     return Answer(_number(item.get("after", 0.0), f"{where}.after", (*key, "after")), event,
-                  dict(item.get("data") or {}))
+                  _data(item.get("data"), f"{where}.data", (*key, "data")))
+
+
+def _data(value: Any, where: str, key: Key) -> dict[str, Any]:
+    """An event's ``data``: a table (none: empty)."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise ScriptError(f"{where}: must be a table, e.g. data = {{ depth = 5.0 }}, got "
+                          f"{type(value).__name__} {str(value)[:40]!r}", key=key)
+    return dict(value)
 
 
 def _number(value: Any, where: str, key: Key = ()) -> float:

@@ -498,3 +498,42 @@ def test_a_parameter_the_vehicle_does_not_take_is_refused(tmp_path: Path) -> Non
     assert f"{mission}:2:5: error: Fast gives GoTo the parameter(s) speed, which vehicle " \
            "sim (the simulated Ictineu) does not take" in text, text
     assert "x, y, yaw, z" in text or "tolerance, x, y, yaw, z" in text, text
+
+
+# -- after the end record: a signal cuts the report, the exit status stays (issue 22) --------
+def test_a_signal_after_the_run_cuts_its_report_and_keeps_its_status() -> None:
+    from app.safe_exit import ReportCut, Stops
+
+    stops = Stops(("SIGTERM",))
+    try:
+        with stops:
+            os.kill(os.getpid(), signal.SIGTERM)  # during the run: a stop request
+            assert stops.request() is not None and stops.request().signal == signal.SIGTERM
+        with pytest.raises(ReportCut) as cut:  # once the end record is written
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(1)  # the handler runs before this ends
+        assert cut.value.line() == ("mcl run: SIGTERM received after the run ended: its "
+                                    "report was cut short (the run log's end record stands)")
+    finally:
+        stops.restore()
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+def test_a_closed_stdout_over_zenoh_switches_the_vehicle_off(tmp_path: Path) -> None:
+    # the issue's case: `mcl run ... --vehicle zenoh:... >&-` exited 3 after `enable
+    # StartLogs`, and the vehicle kept it on
+    pytest.importorskip("zenoh")
+    endpoint = free_endpoint()
+    log = tmp_path / "run.jsonl"
+    with vehicle(["--zenoh", endpoint, "--speed", "20", "--player-timeout", "600"],
+                 tmp_path) as (vproc, vout):
+        with open(tmp_path / "run.out", "wb") as err:
+            proc = subprocess.run([str(BIN / "mcl"), "run", DAM, "--vehicle", f"zenoh:{endpoint}",
+                                   "--max-time", "30", "--log", str(log)], cwd=REPO,
+                                  env=env(tmp_path), stdin=subprocess.DEVNULL, stderr=err,
+                                  preexec_fn=lambda: os.close(1), timeout=WAIT)
+        assert proc.returncode == 4, output(log)
+        assert "Traceback" not in output(log), output(log)
+        last = check_safe_end(log, "time limit", 4)
+        assert "standard output was closed" in last["why"], last
+        vehicle_saw_all_off(vproc, vout)

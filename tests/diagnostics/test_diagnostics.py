@@ -24,6 +24,10 @@ INTERNAL = {
                                  "search (or the report says the method does not apply)",
     "mcl.values.Unresolved": "a value that names a parameter not yet bound: the compiler and "
                              "the duration bounds catch it and go on symbolically",
+    "app.streams.StdoutLost": "a write to standard output that failed: every command's "
+                              "closed-pipe path ends it (quietly, or one line for a full disk)",
+    "app.safe_exit.ReportCut": "a signal after mcl run's end record: it cuts the report short "
+                               "and the exit status stays the end record's",
 }
 
 
