@@ -54,6 +54,7 @@ from mcl.api import Compiled
 from petri.execution.player import MAX_FIRINGS_PER_INSTANT, Player, Record
 from petri.execution.runlog import RunLog, net_digest
 from petri.execution.runner import MissionClock, Outcome, run
+from petri.execution.signing import Signer
 from petri.execution.status import MissionStatus
 
 from mission.capabilities import check_capabilities
@@ -137,7 +138,8 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
                 end_note: Callable[[], str | None] | None = None,
                 during: contextlib.AbstractContextManager[Any] | None = None,
                 waiting: Callable[[str, float], None] | None = None,
-                max_firings_per_instant: int = MAX_FIRINGS_PER_INSTANT) -> RunResult:
+                max_firings_per_instant: int = MAX_FIRINGS_PER_INSTANT,
+                signer: Signer | None = None) -> RunResult:
     """Run ``compiled`` on ``vehicle`` to its end (the steps: this module's docstring).
 
     ``log``: the run log's path (None: no log); ``header``: what its header says of the run
@@ -152,7 +154,8 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     ``waiting``: told ``(where, seconds)`` every second while a vehicle with a link is being
     connected (``mcl run``'s progress); ``max_firings_per_instant``: past this many firings at one mission instant the player
     stops the mission through its abort (a loop that goes round without time passing: the
-    end record's how is ``zeno``, exit 4).
+    end record's how is ``zeno``, exit 4); ``signer``: the key that signs every line of the
+    log (:mod:`petri.execution.signing`; None: the log is chained, not signed).
     Raises :class:`~diagnostics.MclError` when the vehicle cannot run the mission (before
     the first action), :class:`NoVehicle` when no vehicle answered while connecting."""
     limit = time_bound(compiled, max_time)
@@ -174,13 +177,14 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     with contextlib.ExitStack() as held:
         if during is not None:
             held.enter_context(during)
-        opened = held.enter_context(RunLog(log, about)) if log is not None else None
+        opened = held.enter_context(RunLog(log, about, signer)) if log is not None else None
         outcome = play.run(opened, observers, limit[0], stop, waiting)
         result = play.result(outcome, end_note, limit, opened)
         if opened is not None:
             opened.end(max(outcome.time, play.last_t), result.how, result.why,
                        exit=result.exit, status=play.player.status,
                        vehicle_t=round(play.clock.vehicle(outcome.time), 6),
+                       vehicle_t0=round(play.clock.origin or 0.0, 6),
                        switched_off=outcome.switched_off, confirmed=outcome.confirmed,
                        limit=limit[0], limit_from=limit[1],
                        handled=[h.as_record() for h in result.handled])
