@@ -208,19 +208,15 @@ def _open(path: str | Path) -> IO[bytes]:
     """The log, opened for reading: a regular file no larger than :data:`MAX_LOG` (a FIFO
     or a device is refused, not read)."""
     fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    f = os.fdopen(fd, "rb")
     mode = os.fstat(fd)
-    if stat.S_ISDIR(mode.st_mode):
-        f.close()
-        raise IsADirectoryError(path)
-    if not stat.S_ISREG(mode.st_mode):
-        f.close()
-        raise _unreadable(path, "not a regular file (a run log is a file 'mcl run' wrote)")
-    if mode.st_size > MAX_LOG:
-        f.close()
-        raise _unreadable(path, f"larger than {MAX_LOG // 2**20} MiB, the largest run log "
-                          "read")
-    return f
+    if not stat.S_ISREG(mode.st_mode) or mode.st_size > MAX_LOG:
+        os.close(fd)
+        if stat.S_ISDIR(mode.st_mode):
+            raise IsADirectoryError(path)
+        raise _unreadable(path, "not a regular file (a run log is a file 'mcl run' wrote)"
+                          if not stat.S_ISREG(mode.st_mode) else
+                          f"larger than {MAX_LOG // 2**20} MiB, the largest run log read")
+    return os.fdopen(fd, "rb")
 
 
 class _Refused(ValueError):

@@ -58,9 +58,10 @@ def read_key_file(path: str | Path, option: str) -> bytes:
         raise BadKey(path, option, "is a directory, not a key") from None
     except OSError as exc:
         raise BadKey(path, option, f"cannot be read ({exc.strerror or exc})") from None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise BadKey(path, option, "not a regular file (a key is a PEM file)")
     with os.fdopen(fd, "rb") as f:
-        if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
-            raise BadKey(path, option, "not a regular file (a key is a PEM file)")
         data = f.read(MAX_KEY_BYTES + 1)
     if len(data) > MAX_KEY_BYTES:
         raise BadKey(path, option, f"larger than {MAX_KEY_BYTES // 1024} KiB: not a key")
