@@ -5,7 +5,8 @@
 It parses the options, builds the vehicle (``app/vehicles/``, one module per kind), calls
 :func:`mission.run_mission` (the time bound, the capability check, verification, the run log,
 the player and the runner) and prints the timeline and the summary. What it adds as a process:
-signals (SIGINT, SIGTERM, SIGHUP abort the mission through its net) and a standard output
+signals (SIGINT, SIGTERM, SIGHUP abort the mission through its net), the run log's signing
+key (``--log-key``: petri/execution/signing.py) and a standard output
 that never raises (``app/safe_exit.py``). Every exit but a refusal before the start goes
 through the mission's abort, and the run log's last record (``"kind": "end"``) says how and
 why the run ended, with its exit status: docs/EXIT.md (the table: ``mission/exits.py``).
