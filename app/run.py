@@ -5,7 +5,8 @@
 It parses the options, builds the vehicle (``app/vehicles/``, one module per kind), calls
 :func:`mission.run_mission` (the time bound, the capability check, verification, the run log,
 the player and the runner) and prints the timeline and the summary. What it adds as a process:
-signals (SIGINT, SIGTERM, SIGHUP abort the mission through its net) and a standard output
+signals (SIGINT, SIGTERM, SIGHUP abort the mission through its net), the run log's signing
+key (``--log-key``: petri/execution/signing.py) and a standard output
 that never raises (``app/safe_exit.py``). Every exit but a refusal before the start goes
 through the mission's abort, and the run log's last record (``"kind": "end"``) says how and
 why the run ended, with its exit status: docs/EXIT.md (the table: ``mission/exits.py``).
@@ -42,6 +43,7 @@ from mission.run import NotVerified, NoVehicle, RunResult, run_mission
 from mission.stop_handler import text as stop_text
 from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
+from petri.execution.signing import Signer
 
 from app import arguments, vehicles
 from app.guard import guarded
@@ -74,6 +76,10 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
                         "(exit 4). Default: the longest the mission can last by its "
                         "timeouts, plus 10 %% and 60 s; 7200 s when its timeouts do not "
                         "bound it (a WHILE loop, a task that waits without a timeout)")
+    r.add_argument("--log-key", metavar="FILE", default=None,
+                   help="sign every line of the run log with this Ed25519 key (a PEM file: "
+                        "openssl genpkey -algorithm ed25519 -out run.key); 'mcl replay --key' "
+                        "then refuses a log edited and re-signed without it")
     r.add_argument("--quiet", action="store_true", help="no timeline, only the final status")
     r.add_argument("--no-images", action="store_true",
                    help="simulated vehicle: do not render and keep the camera's images, so no "
@@ -147,6 +153,7 @@ def _param_texts(overrides: dict[str, Any]) -> dict[str, str]:
 
 def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
     _check_log(Path(args.log) if args.log else Path("out/runs/MISSION.jsonl"))
+    signer = Signer.load(args.log_key) if args.log_key is not None else None
     overrides = parse_params(args.param, args.params)
     compiled = compile_file(args.mission, args.tasks or None, overrides, require_values=True)
     for d in compiled.warnings:
@@ -181,7 +188,7 @@ def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicl
             compiled, chosen, log=log_path, header=header, max_time=args.max_time,
             stop=stops.request, verify=not args.no_verify, clock=clock, end_note=out.note,
             observers=[] if args.quiet else [_Timeline(compiled, clock, out)], during=stops,
-            waiting=_waiting)
+            waiting=_waiting, signer=signer)
     except NoVehicle as exc:  # refused before the start: nothing was sent
         print(f"mcl run: {exc}\n  run log: {log_path}", file=sys.stderr)
         return Exit.NO_VEHICLE

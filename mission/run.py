@@ -57,6 +57,7 @@ from mcl.api import Compiled
 from petri.execution.player import MAX_FIRINGS_PER_INSTANT, Player, Record
 from petri.execution.runlog import RunLog, net_digest
 from petri.execution.runner import MissionClock, Outcome, run
+from petri.execution.signing import Signer
 from petri.execution.status import MissionStatus
 
 from mission.capabilities import check_capabilities
@@ -148,7 +149,8 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
                 end_note: Callable[[], str | None] | None = None,
                 during: contextlib.AbstractContextManager[Any] | None = None,
                 waiting: Callable[[str, float], None] | None = None,
-                max_firings_per_instant: int = MAX_FIRINGS_PER_INSTANT) -> RunResult:
+                max_firings_per_instant: int = MAX_FIRINGS_PER_INSTANT,
+                signer: Signer | None = None) -> RunResult:
     """Run ``compiled`` on ``vehicle`` to its end (the steps: this module's docstring).
 
     ``log``: the run log's path (None: no log); ``header``: what its header says of the run
@@ -163,7 +165,8 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     ``waiting``: told ``(where, seconds)`` every second while a vehicle with a link is being
     connected (``mcl run``'s progress); ``max_firings_per_instant``: past this many firings at one mission instant the player
     stops the mission through its abort (a loop that goes round without time passing: the
-    end record's how is ``zeno``, exit 4).
+    end record's how is ``zeno``, exit 4); ``signer``: the key that signs every line of the
+    log (:mod:`petri.execution.signing`; None: the log is chained, not signed).
     Raises :class:`~diagnostics.MclError` when the vehicle cannot run the mission (before
     the first action), :class:`NoVehicle` when no vehicle answered while connecting."""
     limit = time_bound(compiled, max_time)
@@ -185,13 +188,15 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     with contextlib.ExitStack() as held:
         if during is not None:
             held.enter_context(during)
-        opened = held.enter_context(_open_log(log, about)) if log is not None else None
+        opened = (held.enter_context(_open_log(log, about, signer)) if log is not None
+                  else None)
         outcome = play.run(opened, observers, limit[0], stop, waiting)
         result = play.result(outcome, end_note, limit, opened)
         if opened is not None:
             opened.end(max(outcome.time, play.last_t), result.how, result.why,
                        exit=result.exit, status=play.player.status,
                        vehicle_t=round(play.clock.vehicle(outcome.time), 6),
+                       vehicle_t0=round(play.clock.origin or 0.0, 6),
                        switched_off=outcome.switched_off, confirmed=outcome.confirmed,
                        limit=limit[0], limit_from=limit[1],
                        handled=[h.as_record() for h in result.handled],
@@ -204,11 +209,12 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
 
 
 @contextlib.contextmanager
-def _open_log(path: str | Path, about: dict[str, Any]) -> Iterator[LogWriter]:
-    """The run log, open, behind its :class:`LogWriter`; one whose header cannot be written
-    is :class:`LogUnwritable`."""
+def _open_log(path: str | Path, about: dict[str, Any], signer: Signer | None = None
+              ) -> Iterator[LogWriter]:
+    """The run log, open (signed by ``signer``, if given), behind its :class:`LogWriter`; one
+    whose header cannot be written is :class:`LogUnwritable`."""
     try:
-        log = RunLog(path, about)
+        log = RunLog(path, about, signer)
     except OSError as exc:
         raise LogUnwritable(path, exc) from None
     try:

@@ -178,8 +178,10 @@ class Player:
         return None if best is None else (best[1], best[0])
 
     @whole
-    def handle_event(self, event: str, now: float, data: dict[str, Any] | None = None) -> int:
-        """Fire what waits for ``event``; returns how many transitions fired.
+    def handle_event(self, event: str, now: float, data: dict[str, Any] | None = None,
+                     raised: float | None = None) -> int:
+        """Fire what waits for ``event``; returns how many transitions fired. ``raised``: the
+        vehicle's clock when it raised the event, which the event record keeps (``vt``).
 
         Timers due before the event fire first. A timer due at the very instant of the event
         is a tie: the event goes first if some transition waits for it; if none does yet, the
@@ -203,7 +205,8 @@ class Player:
             reason = "the mission has ended" if self.finished else "nobody waits for it"
             self._emit(now, "ignored", {"event": event, "reason": reason})
             return 0
-        self._emit(now, "event", {"event": event, "data": data or {}})
+        self._emit(now, "event", {"event": event, "data": data or {}} if raised is None else
+                   {"event": event, "data": data or {}, "vt": raised})
         self._instant.clear()  # an event starts a new chain of firings in this instant
         count = 0
         for t in waiting:

@@ -11,6 +11,17 @@ The player's own switch-off at the end (the last line of defence) is read from i
 ``MISSION``, may follow it. A log written before the cleanup was a record of its own (it said
 so only in a note's text) is refused at its first such disable, with that reason.
 The first record that does not conform is named by its line.
+
+Beyond the firings, the replay checks what the log claims of them: an ``ignored`` event's
+reason against the marking (nobody waited for it, or the mission had ended); the ``end``
+record's ``status`` against the last status the net reached, its ``how`` (ok, fail) against
+the marking, nothing left on unless it says the run broke down (``error``), what it says
+was switched off against what was on when the stop began and what the log disabled; and, where
+the log carries the vehicle's clock (an event's ``vt``, the end record's ``vehicle_t0``, the
+vehicle's clock at the mission's start), that no event was delivered before the vehicle
+raised it nor raised before the mission started. The exit status an end record claims, the
+header's fields and the events the CATCH blocks handled are the mission's to check
+(``mission/evidence.py``).
 """
 
 from __future__ import annotations
@@ -42,13 +53,28 @@ FIELDS: dict[str, dict[str, type | tuple[type, ...]]] = {
     "status": {"status": str},
     "note": {"note": str},
     "cleanup": {"behaviours": list},
+    "end": {"how": str, "why": str},
 }
+NUMBER = (int, float)
+# Fields a record may carry, checked when it does (a library caller's end record may say less).
+OPTIONAL: dict[str, dict[str, type | tuple[type, ...]]] = {
+    "event": {"vt": NUMBER, "data": dict},
+    "ignored": {"reason": str},
+    "end": {"exit": int, "status": str, "switched_off": list, "confirmed": str,
+            "vehicle_t": NUMBER, "vehicle_t0": NUMBER, "limit": NUMBER, "limit_from": str,
+            "handled": list},
+}
+STOPPED_HOWS = ("time limit", "stuck", "signal", "zeno")  # ended through the abort
+BROKE_DOWN = ("error", "refused", "no vehicle")  # how an end that claims no clean exit says
+CLOCK_SLACK = 1e-3  # s: the rounding of the times a log holds (6 decimals), with margin
 
 
 def malformed(records: list[dict[str, Any]]) -> Conformance | None:
     """The first record that lacks a field its kind needs, or has one of the wrong type."""
     for r in records[1:]:
-        for name, kind in FIELDS.get(r["kind"], {}).items():
+        fields = {**FIELDS.get(r["kind"], {}),
+                  **{k: v for k, v in OPTIONAL.get(r["kind"], {}).items() if k in r}}
+        for name, kind in fields.items():
             value = r.get(name)
             if not isinstance(value, kind) or isinstance(value, bool):
                 what = kind.__name__ if isinstance(kind, type) else "/".join(
@@ -59,6 +85,10 @@ def malformed(records: list[dict[str, Any]]) -> Conformance | None:
         if r["kind"] == "cleanup" and not all(isinstance(b, str) for b in r["behaviours"]):
             return Conformance(False, len(records), 0, r.get("_line"),
                                "a 'cleanup' record names behaviours (a list of names)")
+        if r["kind"] == "end" and not all(isinstance(b, str)
+                                          for b in r.get("switched_off", [])):
+            return Conformance(False, len(records), 0, r.get("_line"),
+                               "an end record's 'switched_off' names behaviours")
     return None
 
 
@@ -110,6 +140,9 @@ def check(net: Net, records: list[dict[str, Any]], params: dict[str, Any]) -> Co
     if replay.pending:
         return Conformance(False, len(records), replay.firings, records[-1]["_line"],
                            "the log ends before the last firing's actions")
+    late = replay.clock()
+    if late is not None:
+        return Conformance(False, len(records), replay.firings, late[0], late[1])
     return Conformance(True, len(records), replay.firings)
 
 
@@ -129,10 +162,17 @@ class Replay:
         self.firings = 0
         self.cleanup: set[str] | None = None  # what the player's cleanup has still to switch off
         self.on: set[str] = set()  # behaviours the logged actions have switched on
+        self.last_status = "ready"  # the last status record's (the player's before it starts)
+        self.disabled: set[str] = set()  # every behaviour a logged action disabled
+        self.on_at_stop: set[str] | None = None  # on when the mission's abort began
+        self.raised: list[tuple[int, float, float]] = []  # events: line, t, the vehicle's clock
+        self.origin: float | None = None  # the vehicle's clock at the mission's start
 
     def step(self, r: dict[str, Any]) -> str | None:
         """Play one record."""
         kind, now = r["kind"], float(r.get("t", 0.0))
+        if kind == "status":
+            self.last_status = str(r.get("status"))
         if kind == "status" and r.get("status") == "running":
             self.rules.rearm(self.marking, self.since, now)
             return None
@@ -147,6 +187,12 @@ class Replay:
             return self.clean_up(r)
         if kind == "status":
             return self.status(r)
+        if kind == "event" and "vt" in r:
+            self.raised.append((r["_line"], now, float(r["vt"])))
+        if kind == "ignored":
+            return self.ignored(r)
+        if kind == "end":
+            return self.end(r)
         return None
 
     def action(self, r: dict[str, Any]) -> str | None:
@@ -172,6 +218,7 @@ class Replay:
             self.on.add(str(got["behaviour"]))
         elif got["action"] == "disable":
             self.on.discard(str(got["behaviour"]))
+            self.disabled.add(str(got["behaviour"]))
         return None
 
     def fire(self, r: dict[str, Any], now: float) -> str | None:
@@ -186,6 +233,8 @@ class Replay:
             return f"{tr.name} is not enabled here"
         cause = r.get("cause")
         stop = t in rules.stops and cause in (LINK_LOST, "abort")
+        if stop and self.on_at_stop is None:
+            self.on_at_stop = set(self.on)
         if tr.event is not None and cause != tr.event and not stop:
             return f"{tr.name} waits for {tr.event}, but the log says {cause}"
         if tr.timer is not None:
@@ -224,6 +273,9 @@ class Replay:
         if named != self.on:
             return f"a cleanup of {sorted(named)}, but the behaviours on are {sorted(self.on)}"
         self.cleanup = named
+        if self.on_at_stop is None:
+            self.on_at_stop = set(self.on)
+        self.disabled |= named
         return None
 
     def status(self, r: dict[str, Any]) -> str | None:
@@ -235,4 +287,70 @@ class Replay:
         if status not in marked:
             return (f"status {status!r}, but the net's marking says "
                     f"{sorted(marked) or 'still running'}")
+        return None
+
+    def ignored(self, r: dict[str, Any]) -> str | None:
+        """An event that fired nothing: its reason must hold in the marking."""
+        event, reason = r["event"], r.get("reason")
+        ended = self.rules.end_status(self.marking) is not None or \
+            self.last_status in ("ok", "fail")  # (a forced end: the player's own abort)
+        if reason == "the mission has ended":
+            return None if ended else f"{event} ignored as after the end, but the mission " \
+                "is still running"
+        if reason == "nobody waits for it":
+            waiting = [self.net.transitions[t].name for t in self.rules.waiting.get(event, [])
+                       if self.rules.enabled(self.marking, t)]
+            if event == LINK_LOST:
+                waiting += [self.net.transitions[t].name for t in self.rules.stops
+                            if self.rules.enabled(self.marking, t)]
+            if ended:
+                return f"{event} ignored as waited for by nobody, but the mission had ended"
+            if waiting:
+                return f"{event} ignored as waited for by nobody, but {waiting[0]} waits for it"
+            return None
+        if isinstance(reason, str) and reason.startswith("seq ") and \
+                reason.endswith(": duplicate or out of order"):
+            return None  # the runner's: the event's sequence number is not logged
+        return f"{event} ignored for a reason the player never gives ({reason!r})"
+
+    def end(self, r: dict[str, Any]) -> str | None:
+        """The end record against the marking the firings reached and what the actions left
+        on (``status``, ``how``, what was switched off)."""
+        how = r["how"]
+        if "status" in r and r["status"] != self.last_status:
+            return (f"the end record says status {r['status']!r}, but the log's last status "
+                    f"is {self.last_status!r}")
+        reached = self.rules.end_status(self.marking)
+        if how in ("ok", "fail") and reached != how:
+            return (f"the end record says the mission ended {how}, but the net's marking says "
+                    f"{reached or 'still running'}")
+        if self.on and how not in BROKE_DOWN:
+            return (f"the end record says {how}, but {', '.join(sorted(self.on))} "
+                    "is still on by the log's own actions")
+        said = set(r.get("switched_off", []))
+        if said - self.disabled:
+            return (f"the end record says {', '.join(sorted(said - self.disabled))} was "
+                    "switched off, but no action in the log disabled it")
+        if "switched_off" in r and how in ("ok", "fail") and said:
+            return "the mission ended by itself, yet the end record lists a switch-off"
+        missed = (self.on_at_stop or set()) - said
+        if "switched_off" in r and how in STOPPED_HOWS and missed:
+            return (f"the end record leaves out {', '.join(sorted(missed))}, on when the "
+                    "abort began and switched off by it")
+        if "vehicle_t0" in r:
+            self.origin = float(r["vehicle_t0"])
+        return None
+
+    def clock(self) -> tuple[int, str] | None:
+        """The first event delivered before the vehicle raised it, or raised before the
+        mission started, by the vehicle's clock (where the log carries it)."""
+        if self.origin is None:
+            return None
+        for line, t, vt in self.raised:
+            if vt - self.origin > t + CLOCK_SLACK:
+                return line, (f"delivered at {t:g} s, but the vehicle raised it at "
+                              f"{vt - self.origin:g} s of mission time (its clock {vt:g} s)")
+            if vt < self.origin - CLOCK_SLACK:
+                return line, (f"raised at {vt:g} s of the vehicle's clock, before the "
+                              f"mission started ({self.origin:g} s)")
         return None

@@ -238,7 +238,7 @@ class Run:
             return
         self.last_seq = event.seq
         try:
-            self.player.handle_event(event.event, t, event.data)
+            self.player.handle_event(event.event, t, event.data, raised=event.t)
         finally:
             self.drain()
 

@@ -144,7 +144,7 @@ def edit_line(log: Path, out: Path, which: str) -> int:
         records[i]["status"] = "fail"
     else:
         raise ValueError(which)
-    out.write_text("".join(json.dumps(r) + "\n" for r in records))
+    out.write_text("".join(json.dumps(r, separators=(",", ":")) + "\n" for r in records))
     return i + 1
 
 

@@ -83,7 +83,7 @@ def write_records(path: Path, records: list[dict[str, Any]], rechain: bool = Fal
         if rechain:
             previous = hashlib.sha256((previous + canonical(r)).encode()).hexdigest()
             r = {**r, "digest": previous}
-        lines.append(json.dumps(r) + "\n")
+        lines.append(json.dumps(r, separators=(",", ":")) + "\n")
     path.write_text("".join(lines), "utf-8")
     return path
 
@@ -250,7 +250,7 @@ def test_a_malformed_record_is_an_error_naming_its_line(
     if rechain and isinstance(records[5], dict) and what != "digest a number":
         write_records(log, records, rechain=True)
     else:
-        log.write_text("".join(json.dumps(r) + "\n" for r in records), "utf-8")
+        log.write_text("".join(json.dumps(r, separators=(",", ":")) + "\n" for r in records), "utf-8")
     code, out = replay(capsys, log, DAM)
     assert code == 1, out
     assert f"{log}:6:" in out, out

@@ -161,7 +161,8 @@ def edits(records: list[dict[str, Any]], finished: bool, rnd: random.Random
 
 
 def write_lines(path: Path, records: list[dict[str, Any]]) -> None:
-    path.write_text("".join(json.dumps({k: v for k, v in r.items() if k != "_line"}) + "\n"
+    path.write_text("".join(json.dumps({k: v for k, v in r.items() if not k.startswith("_")},
+                                       separators=(",", ":")) + "\n"
                             for r in records), "utf-8")
 
 
