@@ -173,14 +173,15 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
     out = Output()
     stops = Stops(STOP_SIGNALS)
     try:
-        return _run_and_report(args, compiled, chosen, log_path, header, clock, out, stops)
+        return _run_and_report(args, compiled, chosen, log_path, header, clock, out, stops,
+                               signer)
     finally:
         stops.restore()
 
 
 def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicle,
                     log_path: Path, header: dict[str, Any], clock: MissionClock, out: Output,
-                    stops: Stops) -> int:
+                    stops: Stops, signer: Signer | None) -> int:
     """Run the mission, then report on it; what goes wrong in the report (a full disk, its
     folder removed, a signal) never changes the exit status the end record says."""
     try:
