@@ -60,6 +60,7 @@ check: $(EXTRAS)
 bench: $(EXTRAS)
 	$(BIN)/python bench/bench_verifier.py
 	$(BIN)/python bench/bench_scale.py
+	$(BIN)/python bench/bench_mclc.py
 	$(BIN)/python bench/bench_timed.py
 	$(BIN)/python bench/bench_missions.py
 	$(BIN)/python bench/bench_player.py
