@@ -73,15 +73,33 @@ class ReachabilityGraph:
 
 class Marked:
     """``markings > 0``, computed only for the rows and columns asked for (a full copy of a
-    large state space would cost as much as the state space)."""
+    large state space would cost as much as the state space), and read from a copy of the
+    columns :meth:`keep` gathered, when they hold every column asked for."""
 
     def __init__(self, markings: npt.NDArray[np.unsignedinteger[Any]]):
         self.markings = markings
+        self.kept: Mask | None = None  # markings[:, columns] > 0 for the kept columns
+        self.position = np.full(markings.shape[1], -1, np.int64)  # column -> kept column
 
     def __len__(self) -> int:
         return int(self.markings.shape[0])
 
+    def keep(self, columns: list[int]) -> None:
+        """Gather these columns once: the questions about them read that copy, a row of a
+        few bytes, instead of a row of the whole net each (on a net of 8,000 places the
+        behaviour properties asked 4 questions of 300-700 columns each, 140 ms in all)."""
+        columns = sorted(set(columns))
+        self.kept = np.asarray(self.markings[:, columns] > 0)
+        self.position[:] = -1
+        self.position[columns] = np.arange(len(columns))
+
     def __getitem__(self, key: Any) -> Mask:
+        if self.kept is not None and isinstance(key, tuple) and len(key) == 2:
+            rows, columns = key
+            if not isinstance(columns, slice):
+                where = self.position[np.asarray(columns, np.int64)]
+                if where.size and (where >= 0).all():
+                    return self.kept[rows, where]
         return np.asarray(self.markings[key] > 0)
 
 
