@@ -124,9 +124,12 @@ class Adjacency:
         for _ in range(self.n + 1):  # each round adds at least one marking, or stops
             if len(frontier) == 0:
                 break
-            nxt = targets[gather(starts, frontier)]
-            keep = ~seen[nxt] if within is None else ~seen[nxt] & within[nxt]
-            frontier = np.unique(nxt[keep])
+            if len(frontier) <= NARROW:
+                frontier = narrow_step(starts, targets, frontier, seen, within)
+            else:
+                nxt = targets[gather(starts, frontier)]
+                keep = ~seen[nxt] if within is None else ~seen[nxt] & within[nxt]
+                frontier = np.unique(nxt[keep])
             seen[frontier] = True
         return seen
 
@@ -174,6 +177,25 @@ def csr(n: int, src: npt.NDArray[np.int32], dst: npt.NDArray[np.int32]) -> CSR:
     starts = np.zeros(n + 1, np.int64)
     np.cumsum(np.bincount(src, minlength=n), out=starts[1:])
     return starts, dst[order].astype(np.int64), order.astype(np.int64)
+
+
+# A breadth-first level of at most this many markings is expanded in Python: numpy's dozen
+# calls a level cost more than the few arcs themselves. A mission in sequence is a graph
+# thousands of levels deep and one or two markings wide (reach: 49 ms -> 12 ms on the
+# 2,671 levels of a thousand-task sequence).
+NARROW = 16
+
+
+def narrow_step(starts: Rows, targets: Rows, frontier: Rows, seen: Mask,
+                within: Mask | None) -> Rows:
+    """The markings one arc from ``frontier`` (CSR ``starts``/``targets``), not ``seen`` and
+    inside ``within``, sorted: one level of :meth:`Adjacency.reach`, one marking at a time."""
+    found = set()
+    for m in frontier.tolist():
+        for x in targets[starts[m]:starts[m + 1]].tolist():
+            if not seen[x] and (within is None or within[x]):
+                found.add(x)
+    return np.array(sorted(found), np.int64)
 
 
 def gather(starts: Rows, nodes: Rows) -> Rows:

@@ -33,6 +33,7 @@ from mcl.api import compile_source
 from petri.net import Net
 from petri.semantics import Semantics
 from petri.formats.pnml import read_pnml
+from petri.verification import graph as graph_module
 from petri.verification import reachability as rg
 from petri.verification.graph import Adjacency, Marked, lasso, on_cycles
 from petri.verification.properties import Verdict, verify
@@ -277,3 +278,26 @@ def test_kept_columns_answer_as_the_markings_do() -> None:
     kept.kept[:, 0] = ~kept.kept[:, 0]  # the copy is what answers for kept columns
     assert not np.array_equal(kept[:, [3]], plain[:, [3]])
     assert np.array_equal(kept[:, [4]], plain[:, [4]])
+
+
+@pytest.mark.parametrize("narrow", [0, 3, 10**9])  # numpy only, both, Python only
+def test_reach_is_the_same_however_wide_a_level_is_expanded(
+        narrow: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(11)
+    n = 300
+    src = rng.integers(0, n, 900).astype(np.int32)
+    dst = rng.integers(0, n, 900).astype(np.int32)
+    graph = nx.DiGraph()
+    graph.add_nodes_from(range(n))
+    graph.add_edges_from(zip(src.tolist(), dst.tolist()))
+    within = rng.random(n) < 0.8
+    monkeypatch.setattr(graph_module, "NARROW", narrow)
+    adj = Adjacency(n, src, dst)
+    for sources in ([0], [5, 17, 17, 230], list(range(0, n, 7))):
+        forward = {s for s in sources} | {d for s in sources for d in nx.descendants(graph, s)}
+        backward = {s for s in sources} | {a for s in sources for a in nx.ancestors(graph, s)}
+        assert set(np.flatnonzero(adj.reach(np.array(sources)))) == forward
+        assert set(np.flatnonzero(adj.reach(np.array(sources), backward=True))) == backward
+        inside = graph.subgraph([m for m in range(n) if within[m]] + sources)
+        kept = {s for s in sources} | {d for s in sources for d in nx.descendants(inside, s)}
+        assert set(np.flatnonzero(adj.reach(np.array(sources), within=within))) == kept
