@@ -4,8 +4,9 @@ and the shipped task libraries (parsed and checked from ``mcl/tasks/*.tasks``).
 
 Each entry is one file in the user's cache folder, named by what it is and by the SHA-256 of
 everything it is built from, its *key*: for a parser, the grammar's text, lark's options, lark's
-version and Python's; for a library, the libraries' texts and the source of the code that builds
-it (the ``mcl`` and ``diagnostics`` packages and ``petri/net.py``). A key of contents is finer
+version and Python's; for a library, the libraries' texts, the grammar's, lark's version and
+the source of the code that builds it (the ``mcl`` and ``diagnostics`` packages and
+``petri/net.py``). A key of contents is finer
 than the project's version: an edit of the grammar or of the code in a checkout changes it with
 no release, and a release that changes neither keeps it. So a cache never gives a wrong
 answer: what it holds for a key is what building from that key's inputs gives.

@@ -16,6 +16,7 @@ from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
+import lark
 from lark import Lark, Tree, UnexpectedInput
 
 import diagnostics
@@ -55,7 +56,8 @@ def _lark() -> Lark:
 
 SHIPPED = ("ictineu", "generic")
 SHIPPED_PREFIX = "<mcl>/tasks/"  # the name of a shipped library's source
-# The code a library is built by: the key of a cached library holds its text (mcl/cache.py).
+# The code a library is built by: the key of a cached library holds its text, with the
+# grammar's and lark's version (mcl/cache.py).
 BUILDER_CODE = (Path(__file__).parent, Path(diagnostics.__file__).parent,
                 Path(petri_net.__file__))
 
@@ -83,12 +85,14 @@ def load(paths: list[str] | None = None) -> Library:
 def load_sources(sources: list[Source]) -> Library:
     """The library the sources declare, checked; :class:`MclError` lists its problems.
     Libraries shipped with mcl are parsed and checked once, then loaded from the cache
-    (mcl/cache.py) under the key of their texts and of the code that builds them."""
+    (mcl/cache.py) under the key of their texts, the grammar's, lark's version and the code
+    that builds them."""
     if not sources or not all(s.name.startswith(SHIPPED_PREFIX) for s in sources):
         return build_library(sources)
 
     def parts() -> list[str | bytes]:
-        return [*(f"{s.name}\0{s.text}" for s in sources), *cache.source_files(BUILDER_CODE)]
+        return [*(f"{s.name}\0{s.text}" for s in sources), grammars.grammar_text("tasks.lark"),
+                lark.__version__, *cache.source_files(BUILDER_CODE)]
 
     name = "library-" + "+".join(s.name.removeprefix(SHIPPED_PREFIX).removesuffix(".tasks")
                                  for s in sources)

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import lark
 import pytest
 
-from mcl import tasklib
+from mcl import grammars, tasklib
 from diagnostics import MclError, Source
 from tests.support import cli, write
 
@@ -134,3 +135,19 @@ def test_a_users_library_is_not_cached(tmp_path: Path, monkeypatch: pytest.Monke
     library = tasklib.load_sources([*shipped("core"), Source("rov.tasks", ROV_TASKS)])
     assert "TakeSample" in library.tasks
     assert not list((tmp_path / "cache").glob("library-*"))
+
+
+def test_an_edited_grammar_or_another_lark_is_another_library_entry(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MCL_CACHE_DIR", str(tmp_path))
+    tasklib.load()
+    (first,) = tmp_path.glob("library-*")
+    shipped_grammar = grammars.grammar_text("tasks.lark")
+    monkeypatch.setattr(grammars, "grammar_text", lambda name: shipped_grammar + "\n// edit\n")
+    tasklib.load()
+    (second,) = tmp_path.glob("library-*")
+    assert second != first
+    monkeypatch.setattr(lark, "__version__", "0.0.0")
+    tasklib.load()
+    (third,) = tmp_path.glob("library-*")
+    assert third not in (first, second)
