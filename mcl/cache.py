@@ -6,10 +6,10 @@ Each entry is one file in the user's cache folder, named by what it is and by th
 everything it is built from, its *key*: for a parser, the grammar's text, lark's options, lark's
 version and Python's; for a library, the libraries' texts, the grammar's, lark's version and
 the source of the code that builds it (the ``mcl`` and ``diagnostics`` packages and
-``petri/net.py``). A key of contents is finer
-than the project's version: an edit of the grammar or of the code in a checkout changes it with
-no release, and a release that changes neither keeps it. So a cache never gives a wrong
-answer: what it holds for a key is what building from that key's inputs gives.
+``petri/net.py``). A key of contents is finer than the project's version: an edit of the
+grammar or of the code in a checkout changes it with no release, and a release that changes
+neither keeps it. So a cache never gives a wrong answer: what it holds for a key is what
+building from that key's inputs gives.
 
 The folder is ``$MCL_CACHE_DIR`` when set (set to the empty string: no cache), else
 ``$XDG_CACHE_HOME/mcl-auv``, else ``~/.cache/mcl-auv``. A folder that cannot be made, a file

@@ -61,7 +61,7 @@ class ReachabilityGraph:
         self.main_arcs = Adjacency(n, ss.src[~self.stop_arc], ss.dst[~self.stop_arc],
                                    np.flatnonzero(~self.stop_arc))
         self.main = self.main_arcs.reach(np.array([0]))
-        seeds = np.unique(ss.dst[self.stop_arc & self.main[ss.src]])
+        seeds = unique(ss.dst[self.stop_arc & self.main[ss.src]])
         self.stopped = self.all_arcs.reach(seeds) if len(seeds) else np.zeros(n, bool)
 
     def deadlocks(self) -> Rows:
@@ -119,7 +119,7 @@ class Adjacency:
         """The markings reachable from ``sources`` (or that reach them), inside ``within``."""
         starts, targets, _ = self.bwd if backward else self.fwd
         seen = np.zeros(self.n, bool)
-        frontier = np.unique(np.asarray(sources, np.int64))
+        frontier = unique(np.asarray(sources, np.int64))
         seen[frontier] = True
         for _ in range(self.n + 1):  # each round adds at least one marking, or stops
             if len(frontier) == 0:
@@ -129,7 +129,7 @@ class Adjacency:
             else:
                 nxt = targets[gather(starts, frontier)]
                 keep = ~seen[nxt] if within is None else ~seen[nxt] & within[nxt]
-                frontier = np.unique(nxt[keep])
+                frontier = unique(nxt[keep])
             seen[frontier] = True
         return seen
 
@@ -198,6 +198,15 @@ def narrow_step(starts: Rows, targets: Rows, frontier: Rows, seen: Mask,
     return np.array(sorted(found), np.int64)
 
 
+def unique(values: npt.NDArray[np.integer[Any]]) -> Rows:
+    """The distinct values of a 1-D integer array, sorted: ``np.unique`` without numpy 2's
+    check for a masked array, which loads numpy.ma (7 ms of every mclc) at its first call."""
+    ordered = np.sort(np.asarray(values, np.int64))
+    if len(ordered) < 2:
+        return ordered
+    return ordered[np.concatenate(([True], ordered[1:] != ordered[:-1]))]
+
+
 def gather(starts: Rows, nodes: Rows) -> Rows:
     """Indices of every arc leaving ``nodes`` in a CSR layout, without a Python loop."""
     lo, hi = starts[nodes], starts[nodes + 1]
@@ -226,7 +235,7 @@ def on_cycles(n: int, bad: Mask, src: npt.NDArray[np.int32], dst: npt.NDArray[np
             alive[frontier] = False
             nxt = fwd[1][gather(fwd[0], frontier)]
             np.subtract.at(degree, nxt, 1)
-            nxt = np.unique(nxt)
+            nxt = unique(nxt)
             frontier = nxt[alive[nxt] & (degree[nxt] == 0)]
     return alive
 

@@ -98,7 +98,7 @@ def verify(net: Net, max_markings: int = 5_000_000, keep_graph: bool = False,
     results.append(stop_safe(g, how, cut))
     results.append(actions_match(net))
     fired = np.zeros(len(net.transitions), bool)
-    fired[np.unique(ss.transition)] = True
+    fired[ss.transition] = True
     never = np.flatnonzero(~fired)
     verdict.dead_transitions = never.tolist()
     if cut:

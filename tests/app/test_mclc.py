@@ -15,7 +15,7 @@ from app.mclc import one_blas_thread
 from tests.support import MISSIONS, REPO, budget, subprocess_env
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
-HEAVY = ("numpy", "importlib.metadata", "scipy", "networkx")
+HEAVY = ("numpy", "numpy.ma", "importlib.metadata", "scipy", "networkx")
 
 
 def python(code: str, tmp_path: Path, **env: str) -> list[str]:

@@ -301,3 +301,11 @@ def test_reach_is_the_same_however_wide_a_level_is_expanded(
         inside = graph.subgraph([m for m in range(n) if within[m]] + sources)
         kept = {s for s in sources} | {d for s in sources for d in nx.descendants(inside, s)}
         assert set(np.flatnonzero(adj.reach(np.array(sources), within=within))) == kept
+
+
+def test_unique_is_numpys() -> None:
+    rng = np.random.default_rng(3)
+    for size in (0, 1, 2, 50, 1000):
+        values = rng.integers(-5, 40, size)
+        assert np.array_equal(graph_module.unique(values), np.unique(values))
+        assert graph_module.unique(values).dtype == np.int64
