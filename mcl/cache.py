@@ -14,8 +14,9 @@ building from that key's inputs gives.
 The folder is ``$MCL_CACHE_DIR`` when set (set to the empty string: no cache), else
 ``$XDG_CACHE_HOME/mcl-auv``, else ``~/.cache/mcl-auv``. A folder that cannot be made, a file
 that cannot be read or is not a whole entry (another process writing it, a disk error), a
-file that cannot be written: each is ignored without a word, and the thing is built as if there
-were no cache. Entries are written whole or not at all (a file of the process's own, renamed
+file that cannot be written, an entry another user owns (an entry is a pickle: loading it runs
+what it says): each is ignored without a word, and the thing is built as if there were no
+cache. Entries are written whole or not at all (a file of the process's own, renamed
 over the entry), and writing one removes the entries of the same name under other keys.
 """
 
@@ -79,12 +80,20 @@ def cached(name: str, parts: Callable[[], Iterable[str | bytes]], build: Callabl
         return build()
     try:
         with open(path, "rb") as f:
-            return load(f) if load is not None else pickle.load(f)
+            if mine(f.fileno()):
+                return load(f) if load is not None else pickle.load(f)
     except Exception:  # noqa: BLE001 - absent, unreadable or partial: build it instead
         pass
     value = build()
     store(path, name, value, save)
     return value
+
+
+def mine(fd: int) -> bool:
+    """Whether the open entry belongs to this user: an entry is a pickle, and loading one runs
+    what it says, so one that another user could have put in a shared folder is not read."""
+    getuid = getattr(os, "getuid", None)  # POSIX; elsewhere the folder is the user's own
+    return getuid is None or os.fstat(fd).st_uid == getuid()
 
 
 def store(path: Path, name: str, value: Any, save: Callable[[Any, IO[bytes]], None] | None

@@ -122,3 +122,14 @@ def test_source_files_hold_every_python_file_under_a_folder(tmp_path: Path) -> N
     assert edited != before
     os.utime(tmp_path / "pkg" / "a.py", (0, 0))  # a touch without an edit keeps the key
     assert cache.key(cache.source_files([tmp_path / "pkg"])) == edited
+
+
+def test_an_entry_another_user_owns_is_not_loaded(folder: Path,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    build = Builder(1)
+    cache.cached("thing", lambda: ["a"], build)
+    owner = os.stat(folder).st_uid
+    monkeypatch.setattr(os, "getuid", lambda: owner + 1)
+    assert cache.cached("thing", lambda: ["a"], build)["call"] == 2  # type: ignore[index]
+    monkeypatch.setattr(os, "getuid", lambda: owner)
+    assert cache.cached("thing", lambda: ["a"], build)["call"] == 2  # type: ignore[index]
