@@ -1,0 +1,64 @@
+"""What the language server knows of one open mission: its text run through the one pipeline
+(mcl/parser.py, the task libraries, mcl/checker.py, mcl/compiler.py) as far as it goes.
+
+Each stage keeps what it made, so that hover, definition and completion still work on a
+mission the checker rejects (its syntax tree and libraries are there), and the errors that
+stopped it are the document's diagnostics.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from importlib import resources
+
+from diagnostics import Diagnostic, MclError, Source, Span
+from mcl import ast, checker, compiler, parser, tasklib
+from mcl.api import Compiled, library_of
+
+
+@dataclass
+class Document:
+    """One version of a mission's text and what the pipeline made of it."""
+
+    path: str
+    version: int | None
+    source: Source
+    mission: ast.Mission | None = None
+    library: tasklib.Library | None = None
+    checked: checker.Checked | None = None
+    compiled: Compiled | None = None
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """Compiled without an error: the proofs may run."""
+        return self.compiled is not None
+
+
+def analyse(path: str, text: str, version: int | None = None) -> Document:
+    """Parse, load the libraries, check and compile ``text`` (the mission at ``path``, whose
+    folder its ``USES`` are relative to), stopping at the first stage that fails."""
+    doc = Document(path, version, Source(path, text))
+    try:
+        doc.mission = parser.parse(doc.source)
+        doc.library = library_of(doc.mission, doc.source)
+        doc.checked = checker.check_mission(doc.mission, doc.library, doc.source)
+        doc.diagnostics = list(doc.checked.diagnostics)
+        net = compiler.compile_mission(doc.checked)
+        doc.compiled = Compiled(doc.mission, doc.checked, net, doc.source)
+    except MclError as exc:
+        doc.diagnostics = list(exc.diagnostics)
+    except RecursionError:  # a pathological text: say so at the top, never crash the server
+        doc.diagnostics = [Diagnostic("error", "too deeply nested to analyse",
+                                      Span(path, 1, 1), code="too-deep")]
+    return doc
+
+
+def shipped_path(file: str) -> str | None:
+    """The file on disk of a span's file: a shipped library's ``<mcl>/tasks/NAME`` is the
+    package's own copy (None if the package is not on disk, e.g. in a zip)."""
+    prefix = "<mcl>/tasks/"
+    if not file.startswith(prefix):
+        return file
+    target = resources.files("mcl").joinpath("tasks", file.removeprefix(prefix))
+    return str(target) if hasattr(target, "is_file") and target.is_file() else None
