@@ -1,5 +1,7 @@
 """What the language server knows of one open mission: its text run through the one pipeline
-(mcl/parser.py, the task libraries, mcl/checker.py, mcl/compiler.py) as far as it goes.
+(mcl/parser.py, the task libraries, mcl/checker.py) as far as it goes. The compiler and the
+verifier run later, apart (app/lsp/proofs.py): on a 1,000-task mission the compiler alone
+would double the time a keystroke waits for its diagnostics.
 
 Each stage keeps what it made, so that hover, definition and completion still work on a
 mission the checker rejects (its syntax tree and libraries are there), and the errors that
@@ -12,8 +14,8 @@ from dataclasses import dataclass, field
 from importlib import resources
 
 from diagnostics import Diagnostic, MclError, Source, Span
-from mcl import ast, checker, compiler, parser, tasklib
-from mcl.api import Compiled, library_of
+from mcl import ast, checker, parser, tasklib
+from mcl.api import library_of
 
 
 @dataclass
@@ -26,17 +28,16 @@ class Document:
     mission: ast.Mission | None = None
     library: tasklib.Library | None = None
     checked: checker.Checked | None = None
-    compiled: Compiled | None = None
     diagnostics: list[Diagnostic] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
-        """Compiled without an error: the proofs may run."""
-        return self.compiled is not None
+        """Checked without an error: the proofs may run."""
+        return self.checked is not None
 
 
 def analyse(path: str, text: str, version: int | None = None) -> Document:
-    """Parse, load the libraries, check and compile ``text`` (the mission at ``path``, whose
+    """Parse, load the libraries and check ``text`` (the mission at ``path``, whose
     folder its ``USES`` are relative to), stopping at the first stage that fails."""
     doc = Document(path, version, Source(path, text))
     try:
@@ -44,8 +45,6 @@ def analyse(path: str, text: str, version: int | None = None) -> Document:
         doc.library = library_of(doc.mission, doc.source)
         doc.checked = checker.check_mission(doc.mission, doc.library, doc.source)
         doc.diagnostics = list(doc.checked.diagnostics)
-        net = compiler.compile_mission(doc.checked)
-        doc.compiled = Compiled(doc.mission, doc.checked, net, doc.source)
     except MclError as exc:
         doc.diagnostics = list(exc.diagnostics)
     except RecursionError:  # a pathological text: say so at the top, never crash the server
