@@ -32,12 +32,12 @@ class MclLanguageServer(LanguageServer):
     """The server and what it keeps per open document: the latest analysis, the latest
     that parsed, and the diagnostics of the latest proof of the current version."""
 
-    def __init__(self, delay: float = proofs.PROOF_DELAY) -> None:
+    def __init__(self, delay: float = proofs.PROOF_DELAY, vehicle: str | None = None) -> None:
         super().__init__("mcl-lsp", version_text("mcl lsp"))
         self.documents: dict[str, Document] = {}
         self.parsed: dict[str, Document] = {}
         self.proved: dict[str, list[types.Diagnostic]] = {}
-        self.prover = proofs.Prover(self.proof_done, delay)
+        self.prover = proofs.Prover(self.proof_done, delay, vehicle=vehicle)
 
     def update(self, uri: str) -> None:
         """Analyse the document's current text, publish what the checker says, and ask for
@@ -65,13 +65,14 @@ class MclLanguageServer(LanguageServer):
         doc = self.documents.get(uri)
         if doc is None or doc.version != version:
             return  # a proof of a text that is no longer there
-        kind, result = outcome
-        if kind == "verified":
-            self.proved[uri] = diagnostics.from_verification(doc.source, result)
-        elif kind == "stopped":
-            self.proved[uri] = [diagnostics.stopped(doc.source, result)]
+        if outcome.kind == "verified" and outcome.verification is not None:
+            self.proved[uri] = ([diagnostics.from_mcl(doc.source, d) for d in outcome.lacks]
+                                + diagnostics.from_verification(doc.source,
+                                                                outcome.verification))
+        elif outcome.kind == "stopped":
+            self.proved[uri] = [diagnostics.stopped(doc.source, outcome.why)]
         self.publish(uri)
-        self.protocol.notify(PROVED, {"uri": uri, "version": version, "outcome": kind})
+        self.protocol.notify(PROVED, {"uri": uri, "version": version, "outcome": outcome.kind})
 
     def found(self, uri: str, position: types.Position) -> tuple[Document, Found] | None:
         """The document and what stands at an LSP position (0-based) of it."""
@@ -84,9 +85,10 @@ class MclLanguageServer(LanguageServer):
         return None if thing is None else (doc, thing)
 
 
-def make_server(delay: float = proofs.PROOF_DELAY) -> MclLanguageServer:
+def make_server(delay: float = proofs.PROOF_DELAY,
+                vehicle: str | None = None) -> MclLanguageServer:
     """The server with every feature registered."""
-    server = MclLanguageServer(delay)
+    server = MclLanguageServer(delay, vehicle)
 
     @server.feature(types.TEXT_DOCUMENT_DID_OPEN)
     def did_open(ls: MclLanguageServer, params: types.DidOpenTextDocumentParams) -> None:
@@ -245,6 +247,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--proof-delay", type=seconds, default=proofs.PROOF_DELAY, metavar="SECONDS",
                    help="quiet after a change before its proof starts (default "
                    f"{proofs.PROOF_DELAY:g} s)")
+    p.add_argument("--vehicle", choices=sorted(proofs.VEHICLES), help="also check each "
+                   "mission against what this vehicle declares, as mcl run does before the "
+                   "first action (sim: every registered behaviour; ictineu: the paper's stack)")
     args = p.parse_args(argv)
-    make_server(args.proof_delay).start_io()
+    make_server(args.proof_delay, args.vehicle).start_io()
     return Exit.OK

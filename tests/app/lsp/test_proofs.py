@@ -22,20 +22,30 @@ TEXT = DAM.read_text("utf-8")
 
 
 def test_prove_is_mclcs_verdict() -> None:
-    kind, verdict = prove(str(DAM), TEXT)
+    outcome = prove(str(DAM), TEXT)
+    verdict = outcome.verification
     expected = verify_mission(compile_source(Source(str(DAM), TEXT))).to_json()
-    assert kind == "verified"
+    assert outcome.kind == "verified" and verdict is not None and outcome.lacks == ()
     assert [(p["property"], p["status"]) for p in verdict["properties"]] == [
         (p["property"], p["status"]) for p in expected["properties"]]
 
 
 def test_prove_an_invalid_text() -> None:
-    assert prove("x.mcl", "MISSION {") == ("invalid", None)
+    assert prove("x.mcl", "MISSION {") == Outcome("invalid")
+
+
+def test_prove_checks_the_vehicle_named() -> None:
+    seabed = ROOT / "missions" / "pipeline_inspection.mcl"
+    text = seabed.read_text("utf-8")
+    assert prove(str(seabed), text, "sim").lacks == ()
+    lacks = prove(str(seabed), text, "ictineu").lacks
+    assert lacks and {d.code for d in lacks} == {"vehicle-lacks-behaviour"}
+    assert all(d.span is not None and d.span.file == str(seabed) for d in lacks)
 
 
 def test_prove_keeps_to_the_explicit_routes_limits() -> None:
-    kind, verdict = prove(str(DAM), TEXT, max_markings=10)
-    assert kind == "verified" and verdict["reachable_markings"] == 0
+    verdict = prove(str(DAM), TEXT, max_markings=10).verification
+    assert verdict is not None and verdict["reachable_markings"] == 0
     assert any("over the explicit route's budget of 10 markings" in p["method"]
                for p in verdict["properties"])
 
@@ -57,7 +67,7 @@ async def test_only_the_latest_text_is_proved() -> None:
     prover.request("u", str(DAM), TEXT, 2)
     while "u" in prover.running:
         await asyncio.sleep(0.05)
-    assert [(uri, version, outcome[0]) for uri, version, outcome in reports.got] == [
+    assert [(uri, version, outcome.kind) for uri, version, outcome in reports.got] == [
         ("u", 2, "verified")]
 
 
@@ -83,6 +93,6 @@ async def test_a_proof_past_its_time_is_stopped() -> None:
     prover.request("u", str(DAM), TEXT, 1)
     while "u" in prover.running:
         await asyncio.sleep(0.05)
-    [(_, _, (kind, why))] = reports.got
-    assert kind == "stopped" and "longer than 0.01 s" in why
+    [(_, _, outcome)] = reports.got
+    assert outcome.kind == "stopped" and "longer than 0.01 s" in outcome.why
     assert not multiprocessing.active_children()

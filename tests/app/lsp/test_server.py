@@ -235,3 +235,25 @@ async def test_completion_symbols_rename_and_hints(client: LanguageClient) -> No
     hints = await client.text_document_inlay_hint_async(types.InlayHintParams(
         doc, types.Range(types.Position(0, 0), types.Position(60, 0))))
     assert hints and all(str(h.label).strip().startswith("[") for h in hints)
+
+
+@pytest_lsp.fixture(config=ClientServerConfig(  # type: ignore[untyped-decorator]
+    server_command=[sys.executable, "-m", "app.mcl", "lsp", "--proof-delay", "0",
+                    "--vehicle", "ictineu"]))
+async def ictineu_client(lsp_client: LanguageClient) -> Any:
+    await lsp_client.initialize_session(types.InitializeParams(
+        capabilities=client_capabilities("visual-studio-code"),
+        root_uri=uris.from_fs_path(str(ROOT))))
+    yield
+    await lsp_client.shutdown_session()
+
+
+@pytest.mark.asyncio
+async def test_what_the_vehicle_lacks_at_each_call(ictineu_client: LanguageClient) -> None:
+    seabed = ROOT / "missions" / "pipeline_inspection.mcl"
+    found = await open_and_prove(ictineu_client, seabed)
+    lacking = [d for d in found if d.code == "vehicle-lacks-behaviour"]
+    assert lacking and all(d.severity == types.DiagnosticSeverity.Error for d in lacking)
+    calls = {(c["line"], c["col"]) for c in mclc(seabed)["task_calls"]}
+    assert {(d.range.start.line + 1, d.range.start.character + 1) for d in lacking} <= calls
+    assert any("KeepAltitude" in d.message for d in lacking)
