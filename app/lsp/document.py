@@ -38,8 +38,11 @@ class Document:
 
 def analyse(path: str, text: str, version: int | None = None) -> Document:
     """Parse, load the libraries and check ``text`` (the mission at ``path``, whose
-    folder its ``USES`` are relative to), stopping at the first stage that fails."""
+    folder its ``USES`` are relative to), stopping at the first stage that fails; a task
+    library (``.tasks``) is loaded as :func:`analyse_library` says."""
     doc = Document(path, version, Source(path, text))
+    if path.endswith(".tasks"):
+        return analyse_library(doc)
     try:
         doc.mission = parser.parse(doc.source)
         doc.library = library_of(doc.mission, doc.source)
@@ -50,6 +53,26 @@ def analyse(path: str, text: str, version: int | None = None) -> Document:
     except RecursionError:  # a pathological text: say so at the top, never crash the server
         doc.diagnostics = [Diagnostic("error", "too deeply nested to analyse",
                                       Span(path, 1, 1), code="too-deep")]
+    return doc
+
+
+def analyse_library(doc: Document) -> Document:
+    """A task library: loaded after the core library, as every mission loads it; if that
+    fails, after the Ictineu library too (a library may use the behaviours of another that
+    missions load beside it), and its errors are those of the first try when both fail."""
+    core = tasklib.shipped_source("core.tasks")
+    tries = [[core, doc.source], [core, tasklib.shipped_source("ictineu.tasks"), doc.source]]
+    first: list[Diagnostic] = []
+    for sources in tries:
+        try:
+            doc.library = tasklib.load_sources(sources)
+            return doc
+        except MclError as exc:
+            first = first or list(exc.diagnostics)
+        except RecursionError:
+            break
+    doc.diagnostics = first or [Diagnostic("error", "too deeply nested to analyse",
+                                           Span(doc.path, 1, 1), code="too-deep")]
     return doc
 
 

@@ -172,3 +172,15 @@ def test_a_failed_property_is_at_the_call_that_caused_it() -> None:
     assert found and {d.range.start.line + 1 for d in found} <= {4, 6}
     for d in found:
         assert d.related_information and d.related_information[0].message.startswith("1. ")
+
+
+def test_a_task_library_is_loaded_not_parsed_as_a_mission() -> None:
+    seabed = ROOT / "missions" / "seabed.tasks"
+    text = seabed.read_text("utf-8")
+    doc = analyse(str(seabed), text)
+    assert doc.diagnostics == [] and doc.mission is None and doc.library is not None
+    assert "KeepAltitude" in doc.library.behaviours and not doc.ok
+    broken = analyse(str(seabed), text.replace("behaviour KeepAltitude", "behaviour KeepAltitude\n  drives q"))
+    [d] = broken.diagnostics
+    assert d.severity == "error" and d.span is not None and d.span.file == str(seabed)
+    assert d.span.line > 1
