@@ -53,6 +53,11 @@ def analyse(path: str, text: str, version: int | None = None) -> Document:
     except RecursionError:  # a pathological text: say so at the top, never crash the server
         doc.diagnostics = [Diagnostic("error", "too deeply nested to analyse",
                                       Span(path, 1, 1), code="too-deep")]
+    except Exception as exc:  # a bug of ours: said plainly in the editor, the server lives on
+        doc.diagnostics = [Diagnostic(
+            "error", f"internal error: {type(exc).__name__}: {exc}", Span(path, 1, 1),
+            hint="this is a bug in mcl; mclc --debug on the file shows where",
+            code="internal-error")]
     return doc
 
 

@@ -184,3 +184,13 @@ def test_a_task_library_is_loaded_not_parsed_as_a_mission() -> None:
     [d] = broken.diagnostics
     assert d.severity == "error" and d.span is not None and d.span.file == str(seabed)
     assert d.span.line > 1
+
+
+def test_a_bug_of_ours_is_one_diagnostic_not_a_dead_server(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    def broken(source: Source) -> None:
+        raise ZeroDivisionError("division by zero")
+
+    monkeypatch.setattr("mcl.parser.parse", broken)
+    [d] = analyse(str(DAM), TEXT).diagnostics
+    assert d.code == "internal-error" and "ZeroDivisionError" in d.message
