@@ -63,6 +63,13 @@ def _duration_problems(report: dict[str, Any]) -> list[dict[str, Any]]:
              "col": longest.get("col") or 1} for text in duration.get("failures", [])]
 
 
+def problems(report: dict[str, Any]) -> list[dict[str, Any]]:
+    """Every diagnostic and failed or undecided property of one file (mclc's JSON report),
+    each with its rule, level, message and MCL place: what every format here (and the
+    language server, app/lsp/) reports."""
+    return _problems(report)
+
+
 def github(reports: list[dict[str, Any]]) -> str:
     def esc(text: str) -> str:
         return text.replace("%", "%25").replace("\r", "%0D").replace("\n", "%0A")
