@@ -1,6 +1,6 @@
 # make demo   — set up (first time) and show the dam mission compiled and verified
 # make test   — set up (first time) and run the test suite
-# make check  — lint (ruff) and type-check (mypy)
+# make check  — lint (ruff), type-check (mypy), and the missions in mcl fmt's layout
 # make bench  — benchmarks (figures, not pass/fail)
 PYTHON ?= python3
 PACKAGES := app mission mcl petri mosaic vehicle_adapters vehicle behaviours aal diagnostics
@@ -56,6 +56,7 @@ test: $(EXTRAS)
 check: $(EXTRAS)
 	$(BIN)/ruff check $(PACKAGES) tests bench
 	$(BIN)/mypy $(PACKAGES)
+	$(BIN)/mcl fmt --check missions
 
 bench: $(EXTRAS)
 	$(BIN)/python bench/bench_verifier.py

@@ -6,6 +6,7 @@
     mcl vehicle --zenoh ENDPOINT | --mavlink URL ...   app/vehicle.py
     mcl monitor --zenoh ENDPOINT ...                   app/monitor.py
     mcl mosaic RUN.jsonl ...                           app/mosaic.py
+    mcl fmt MISSION.mcl... [--check | --diff]          app/fmt.py
 
 Each module's ``main(argv)`` takes what follows the subcommand and returns the exit status
 (docs/EXIT.md). A standard output closed under a command (``mcl ... | head -1``) ends it quietly.
@@ -32,6 +33,8 @@ COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
     "mosaic": ("app.mosaic", "make the photomosaic and coverage map of a run's images: "
                "mcl mosaic RUN.jsonl [--scale MM_PER_PX]"),
     "replay": ("app.replay", "check that a run log is a legal run of the mission"),
+    "fmt": ("app.fmt", "rewrite missions in the canonical layout, comments kept: mcl fmt "
+            "FILE|DIR... [--check | --diff]"),
     "check": ("app.check", "compile and verify missions, as mclc does: mcl check MISSION.mcl... "
               "[mclc's options]"),
 }
