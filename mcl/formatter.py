@@ -68,6 +68,17 @@ def format_source(source: Source) -> str:
     return Layout(source.text, tree, comments).text()
 
 
+def lexed(source: Source) -> list[Token]:
+    """The tokens of a mission and its comments (``COMMENT``, ``BLOCK_COMMENT``), in source
+    order; an :class:`MclError` if it does not parse."""
+    parse(source)
+    with _Collected.lock:
+        _Collected.comments = []
+        tree = _lark().parse(source.text)
+        comments = list(_Collected.comments)
+    return sorted([*tokens_of(tree), *comments], key=_start)
+
+
 def format_text(text: str, origin: str = "<text>") -> str:
     return format_source(Source(origin, text))
 
