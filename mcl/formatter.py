@@ -61,11 +61,12 @@ def _lark() -> Lark:
 def format_source(source: Source) -> str:
     """The canonical layout of a mission; an :class:`MclError` if it does not parse."""
     parse(source)  # the parser's friendly errors for text that is not MCL
+    text = source.text.replace("\r\n", "\n")  # the layout's lines end in '\n' alone
     with _Collected.lock:
         _Collected.comments = []
-        tree = _lark().parse(source.text)
+        tree = _lark().parse(text)
         comments = sorted(_Collected.comments, key=_start)
-    return Layout(source.text, tree, comments).text()
+    return Layout(text, tree, comments).text()
 
 
 def lexed(source: Source) -> list[Token]:

@@ -111,6 +111,11 @@ def test_comments_inside_a_call_and_after_a_brace() -> None:
     assert format_text(text) == text and same_mission(text, source)
 
 
+def test_windows_line_ends_become_unix_ones_comments_included() -> None:
+    text = format_text("MISSION { A() // x\r\n /* y\r\n z */ }\r\n")
+    assert text == "MISSION {\n    A()  // x\n    /* y\n z */\n}\n"
+
+
 def test_text_that_does_not_parse_is_the_parser_error() -> None:
     with pytest.raises(MclError, match="';' before '}'"):
         format_text("MISSION { A(); }")
@@ -153,4 +158,4 @@ def test_random_layouts_and_comments(case: tuple[str, str]) -> None:
     assert same_mission(text, printed)
     assert format_text(text) == text
     assert comments(text) == comments(source)
-    assert all(len(line) <= WIDTH or "(" in line for line in text.splitlines())
+    assert all(line == line.rstrip() for line in text.splitlines())  # no trailing blanks
