@@ -60,6 +60,16 @@ def mission_files(names: list[str]) -> list[str]:
     return files
 
 
+def read_mission(name: str) -> Source:
+    """The text of a mission to format; a task library is refused in one line (not yet)."""
+    if name == "-":
+        return Source("<stdin>", sys.stdin.read())
+    if name.endswith(".tasks"):
+        raise file_error(name, "is a task library: mcl fmt lays out missions (.mcl) only, "
+                         "not yet task libraries", "give mission files", code="not-a-mission")
+    return read_source(name)
+
+
 def _write(path: str, text: str) -> None:
     """Replace the file's text at once (a temporary file renamed over it), keeping its mode."""
     mode = os.stat(path).st_mode & 0o7777
@@ -77,8 +87,7 @@ def _write(path: str, text: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     files = mission_files(args.files)
-    sources = [Source("<stdin>", sys.stdin.read()) if f == "-" else read_source(f)
-               for f in files]
+    sources = [read_mission(f) for f in files]
     formatted = [format_source(s) for s in sources]  # every file parses before any is written
     changed = 0
     for name, source, text in zip(files, sources, formatted, strict=True):

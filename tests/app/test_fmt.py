@@ -78,6 +78,10 @@ def test_invalid_input_is_exit_2_and_no_file_is_written(tmp_path: Path) -> None:
     assert messy.read_text("utf-8") == MESSY
     missing = cli("mcl", "fmt", str(tmp_path / "nothing.mcl"))
     assert missing.returncode == 2 and "no such file" in missing.stderr
+    library = cli("mcl", "fmt", str(REPO / "missions" / "seabed.tasks"))
+    assert library.returncode == 2
+    assert library.stderr.splitlines()[0].endswith("is a task library: mcl fmt lays out "
+                                                   "missions (.mcl) only, not yet task libraries")
     empty = tmp_path / "empty"
     empty.mkdir()
     assert cli("mcl", "fmt", str(empty)).returncode == 2
