@@ -7,6 +7,7 @@
     mcl monitor --zenoh ENDPOINT ...                   app/monitor.py
     mcl mosaic RUN.jsonl ...                           app/mosaic.py
     mcl lsp                                            app/lsp/server.py (for editors)
+    mcl fmt MISSION.mcl... [--check | --diff]          app/fmt.py
 
 Each module's ``main(argv)`` takes what follows the subcommand and returns the exit status
 (docs/EXIT.md). A standard output closed under a command (``mcl ... | head -1``) ends it quietly.
@@ -35,6 +36,8 @@ COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
     "replay": ("app.replay", "check that a run log is a legal run of the mission"),
     "lsp": ("app.lsp.server", "the MCL language server for editors, over standard input and "
             "output: mcl lsp (docs/EDITORS.md)"),
+    "fmt": ("app.fmt", "rewrite missions in the canonical layout, comments kept: mcl fmt "
+            "FILE|DIR... [--check | --diff]"),
     "check": ("app.check", "compile and verify missions, as mclc does: mcl check MISSION.mcl... "
               "[mclc's options]"),
 }
