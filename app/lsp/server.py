@@ -3,7 +3,8 @@
 On every change the mission goes through the parser, its libraries and the checker at once
 (app/lsp/document.py) and their errors are published; the proofs follow in a process of their
 own once typing pauses (app/lsp/proofs.py), and their failures join the diagnostics. Hover,
-definition, rename, completion, symbols, code actions and inlay hints read the document as
+definition, rename, completion, symbols, code actions, inlay hints and formatting (``mcl
+fmt``'s layout) read the document as
 the pipeline left it (the last version that parsed, for completion while a line is half
 typed). Editors' setup: docs/EDITORS.md; exit statuses: docs/EXIT.md.
 """
@@ -21,7 +22,9 @@ from app.lsp import diagnostics, hover, navigation, outline, proofs
 from app.lsp.document import Document, analyse
 from app.lsp.locate import Found, at
 from app.version import version_text
+from diagnostics import MclError
 from mcl.analysis import duration
+from mcl.formatter import format_source
 from mcl.quantities import seconds_text
 from mission.exits import Exit
 
@@ -175,6 +178,28 @@ def register_reading(server: MclLanguageServer) -> None:
                       params: types.InlayHintParams) -> list[types.InlayHint]:
         doc = ls.documents.get(params.text_document.uri)
         return inlay_hints(doc) if doc is not None else []
+
+    @server.feature(types.TEXT_DOCUMENT_FORMATTING)
+    def on_formatting(ls: MclLanguageServer,
+                      params: types.DocumentFormattingParams) -> list[types.TextEdit]:
+        doc = ls.documents.get(params.text_document.uri)
+        return formatting(doc) if doc is not None else []
+
+
+def formatting(doc: Document) -> list[types.TextEdit]:
+    """``mcl fmt``'s layout (mcl/formatter.py) as one edit of the whole document; none for a
+    mission that does not parse (its errors are the diagnostics) or a ``.tasks`` file."""
+    if doc.mission is None or doc.path.endswith(".tasks"):
+        return []
+    try:
+        text = format_source(doc.source)
+    except MclError:
+        return []
+    if text == doc.source.text:
+        return []
+    lines = doc.source.text.split("\n")
+    end = types.Position(len(lines) - 1, len(lines[-1]))
+    return [types.TextEdit(types.Range(types.Position(0, 0), end), text)]
 
 
 def code_actions(doc: Document, uri: str) -> list[types.CodeAction]:

@@ -257,3 +257,24 @@ async def test_what_the_vehicle_lacks_at_each_call(ictineu_client: LanguageClien
     calls = {(c["line"], c["col"]) for c in mclc(seabed)["task_calls"]}
     assert {(d.range.start.line + 1, d.range.start.character + 1) for d in lacking} <= calls
     assert any("KeepAltitude" in d.message for d in lacking)
+
+
+@pytest.mark.asyncio
+async def test_formatting_is_mcl_fmts_layout(client: LanguageClient, tmp_path: Path) -> None:
+    # issue 26: the server's formatting uses mcl fmt (mcl/formatter.py), comments kept
+    path = tmp_path / "messy.mcl"
+    text = "// a note\nMISSION m {GoTo((0,0,1,0 deg));   // down\n  Surface()} ON STOP {Surface()}\n"
+    path.write_text(text, "utf-8")
+    uri = uris.from_fs_path(str(path))
+    assert uri is not None
+    client.text_document_did_open(types.DidOpenTextDocumentParams(types.TextDocumentItem(
+        uri, "mcl", 1, text)))
+    edits = await client.text_document_formatting_async(types.DocumentFormattingParams(
+        types.TextDocumentIdentifier(uri), types.FormattingOptions(4, True)))
+    assert edits is not None and len(edits) == 1
+    formatted = edits[0].new_text
+    done = subprocess.run([sys.executable, "-m", "app.mcl", "fmt", "-"], input=text,
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert formatted == done.stdout != text
+    assert "// a note" in formatted and "// down" in formatted
