@@ -6,6 +6,8 @@
     mcl vehicle --zenoh ENDPOINT | --mavlink URL ...   app/vehicle.py
     mcl monitor --zenoh ENDPOINT ...                   app/monitor.py
     mcl mosaic RUN.jsonl ...                           app/mosaic.py
+    mcl lsp                                            app/lsp/server.py (for editors)
+    mcl fmt MISSION.mcl... [--check | --diff]          app/fmt.py
 
 Each module's ``main(argv)`` takes what follows the subcommand and returns the exit status
 (docs/EXIT.md). A standard output closed under a command (``mcl ... | head -1``) ends it quietly.
@@ -20,7 +22,7 @@ from collections.abc import Callable
 from typing import cast
 
 from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
-from app.version import version_text
+from app.version import VersionAction
 from mission.exits import Exit
 
 COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
@@ -32,6 +34,10 @@ COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
     "mosaic": ("app.mosaic", "make the photomosaic and coverage map of a run's images: "
                "mcl mosaic RUN.jsonl [--scale MM_PER_PX]"),
     "replay": ("app.replay", "check that a run log is a legal run of the mission"),
+    "lsp": ("app.lsp.server", "the MCL language server for editors, over standard input and "
+            "output: mcl lsp (docs/EDITORS.md)"),
+    "fmt": ("app.fmt", "rewrite missions in the canonical layout, comments kept: mcl fmt "
+            "FILE|DIR... [--check | --diff]"),
     "check": ("app.check", "compile and verify missions, as mclc does: mcl check MISSION.mcl... "
               "[mclc's options]"),
 }
@@ -40,7 +46,7 @@ COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
 def _parser() -> argparse.ArgumentParser:
     """What ``mcl --help`` and ``mcl`` without a known subcommand say."""
     p = argparse.ArgumentParser(prog="mcl", description="Run MCL missions and check their logs.")
-    p.add_argument("--version", action="version", version=version_text("mcl"))
+    p.add_argument("--version", action=VersionAction)
     sub = p.add_subparsers(dest="command", required=True)
     for name, (_, line) in COMMANDS.items():
         sub.add_parser(name, help=line)

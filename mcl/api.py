@@ -81,6 +81,12 @@ def _names_in(value: ast.Value) -> list[str]:
     return []
 
 
+def library_of(mission: ast.Mission, source: Source) -> tasklib.Library:
+    """The task libraries a parsed mission is written against: core, then those its USES
+    name (relative to its file; default the Ictineu library)."""
+    return tasklib.load(_uses(mission, source))
+
+
 def _uses(mission: ast.Mission, source: Source) -> list[str] | None:
     """The libraries named by USES, relative to the mission file (shipped ones by name)."""
     paths = []

@@ -22,7 +22,7 @@ from lark import (
 
 from diagnostics import MclError, Source, Span, error, read_source
 
-from mcl import ast
+from mcl import ast, grammars
 from mcl.ast_builder import AstBuilder, token_span
 
 KEYWORDS = ("MISSION", "PARAM", "USES", "TRY", "CATCH", "DO", "PARALLEL", "AND", "OR", "IF", "THEN",
@@ -100,9 +100,8 @@ KNOWN_MISTAKES: dict[str, tuple[str, str, list[str]]] = {
 
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
-    return Lark.open_from_package("mcl", "mcl.lark", ("grammar",), parser="lalr",
-                                  propagate_positions=True, maybe_placeholders=True, cache=True,
-                                  start=["start", "value"])
+    return grammars.parser("mcl.lark", parser="lalr", propagate_positions=True,
+                           maybe_placeholders=True, start=["start", "value"])
 
 
 def parse_file(path: str) -> ast.Mission:

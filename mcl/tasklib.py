@@ -14,13 +14,17 @@ from __future__ import annotations
 
 from functools import lru_cache
 from importlib import resources
+from pathlib import Path
 
+import lark
 from lark import Lark, Tree, UnexpectedInput
 
+import diagnostics
 from diagnostics import Diagnostic, MclError, Source, Span, error, read_source
+from petri import net as petri_net
 from petri.net import POINT_FIELDS
 
-from mcl import ast
+from mcl import ast, cache, grammars
 from mcl.declarations import (
     ACTION_KINDS,
     BUILTIN_SOURCES,
@@ -46,12 +50,16 @@ __all__ = ["ACTION_KINDS", "BUILTIN_SOURCES", "DEFAULT_DOFS", "SHIPPED", "Action
 
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
-    return Lark.open_from_package("mcl", "tasks.lark", ("grammar",), parser="lalr",
-                                  propagate_positions=True, maybe_placeholders=True, cache=True,
-                                  start="library")
+    return grammars.parser("tasks.lark", parser="lalr", propagate_positions=True,
+                           maybe_placeholders=True, start="library")
 
 
 SHIPPED = ("ictineu", "generic")
+SHIPPED_PREFIX = "<mcl>/tasks/"  # the name of a shipped library's source
+# The code a library is built by: the key of a cached library holds its text, with the
+# grammar's and lark's version (mcl/cache.py).
+BUILDER_CODE = (Path(__file__).parent, Path(diagnostics.__file__).parent,
+                Path(petri_net.__file__))
 
 
 def is_shipped(name: str) -> bool:
@@ -62,7 +70,7 @@ def is_shipped(name: str) -> bool:
 def shipped_source(name: str) -> Source:
     """A file shipped in mcl/tasks/ (e.g. ``core.tasks``) as a source."""
     text = resources.files("mcl").joinpath("tasks", name).read_text("utf-8")
-    return Source(f"<mcl>/tasks/{name}", text)
+    return Source(SHIPPED_PREFIX + name, text)
 
 
 def load(paths: list[str] | None = None) -> Library:
@@ -75,6 +83,24 @@ def load(paths: list[str] | None = None) -> Library:
 
 
 def load_sources(sources: list[Source]) -> Library:
+    """The library the sources declare, checked; :class:`MclError` lists its problems.
+    Libraries shipped with mcl are parsed and checked once, then loaded from the cache
+    (mcl/cache.py) under the key of their texts, the grammar's, lark's version and the code
+    that builds them."""
+    if not sources or not all(s.name.startswith(SHIPPED_PREFIX) for s in sources):
+        return build_library(sources)
+
+    def parts() -> list[str | bytes]:
+        return [*(f"{s.name}\0{s.text}" for s in sources), grammars.grammar_text("tasks.lark"),
+                lark.__version__, *cache.source_files(BUILDER_CODE)]
+
+    name = "library-" + "+".join(s.name.removeprefix(SHIPPED_PREFIX).removesuffix(".tasks")
+                                 for s in sources)
+    return cache.cached(name, parts, lambda: build_library(sources))
+
+
+def build_library(sources: list[Source]) -> Library:
+    """Parse and check the sources into a library (no cache)."""
     library = Library()
     pending: list[tuple[Source, TaskForm]] = []
     drivers: list[tuple[Source, Behaviour]] = []

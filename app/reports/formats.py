@@ -3,7 +3,13 @@
 * ``junit``: JUnit XML, one test suite per file, one test case per property (and one for the
   input itself when it is not valid MCL); a failed property carries its counterexample.
 * ``sarif``: SARIF 2.1.0, one result per error, warning and failed property, located at the
-  MCL line (for a property: the source line of the counterexample's last step).
+  MCL line (for a property: the source line of the counterexample's last step); a
+  counterexample is a ``codeFlow`` with a location per step (a lasso's loop after its run);
+  the rules carry help text and a link into the documents (:mod:`app.reports.rules`); files
+  are URIs relative to the root of the repository mclc runs in (``%SRCROOT%``) or, outside
+  it, ``file://`` URIs.
+* ``no-dead-transitions`` is not reported in ``sarif`` and ``github`` for a mission: its
+  dead transitions are template paths the mission cannot take, nothing an author can act on.
 * A deadline or battery that some run can break (``mclc --deadline/--battery``, the JSON's
   ``duration.failures``) is a failure / error too, located at the longest step of the critical
   path (docs/DURATION.md).
@@ -14,22 +20,29 @@
 from __future__ import annotations
 
 import json
+import os
 import xml.etree.ElementTree as ET
+from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
-TOOL_URI = "https://example.invalid/mcl"  # no public home yet; SARIF wants a URI
+from app.reports.rules import docs_uri, rule
+
+NOT_ACTIONABLE = {"no-dead-transitions"}  # for a mission: template paths it cannot take
 
 
 def _problems(report: dict[str, Any]) -> list[dict[str, Any]]:
-    """Every diagnostic and failed property of one file, each with a place and a level."""
+    """Every diagnostic and failed property of one file, each with a place and a level (and,
+    for a property, the steps of its counterexample and of its loop)."""
     out = []
     for d in report.get("diagnostics", []):
         out.append({"rule": d.get("code") or "mcl", "level": d["severity"],
                     "message": d["message"] + (f" (hint: {d['hint']})" if d.get("hint") else ""),
                     "file": d.get("file") or report["file"], "line": d.get("line") or 1,
-                    "col": d.get("col") or 1})
+                    "col": d.get("col") or 1, "about": d["message"], "hint": d.get("hint") or ""})
+    mission = "mission" in report
     for p in report.get("verification", {}).get("properties", []):
-        if p["holds"]:
+        if p["holds"] or (mission and p["property"] in NOT_ACTIONABLE):
             continue
         steps = p.get("counterexample") or []
         located = [s for s in steps if s.get("file")]
@@ -43,7 +56,9 @@ def _problems(report: dict[str, Any]) -> list[dict[str, Any]]:
                     "message": ("undecided: " if undecided else "") + p["message"]
                     + (f" — shortest run: {trace}" if trace else ""),
                     "file": last.get("file") or report["file"], "line": last.get("line") or 1,
-                    "col": last.get("col") or 1})
+                    "col": last.get("col") or 1, "steps": located,
+                    "loop": [s for s in p.get("cycle") or [] if s.get("file")],
+                    "about": ("undecided: " if undecided else "") + p["message"], "hint": ""})
     out += _duration_problems(report)
     return out
 
@@ -57,10 +72,21 @@ def _duration_problems(report: dict[str, Any]) -> list[dict[str, Any]]:
                   default={})
     trace = "; ".join(f"{s['line']}: {s['task']} {s['ending']}" for s in path
                       if s["seconds"] != 0)
+    steps = [{"file": report["file"], "line": s.get("line") or 1, "col": s.get("col") or 1,
+              "construct": s["task"], "label": f"{s['ending']} ({s['seconds']} s)"}
+             for s in path if s["seconds"] != 0]
     return [{"rule": "deadline" if text.startswith("deadline") else "battery",
              "level": "error", "message": text + (f" — critical path: {trace}" if trace else ""),
              "file": report["file"], "line": longest.get("line") or 1,
-             "col": longest.get("col") or 1} for text in duration.get("failures", [])]
+             "col": longest.get("col") or 1, "about": text, "hint": "", "steps": steps}
+            for text in duration.get("failures", [])]
+
+
+def problems(report: dict[str, Any]) -> list[dict[str, Any]]:
+    """Every diagnostic and failed or undecided property of one file (mclc's JSON report),
+    each with its rule, level, message and MCL place: what every format here (and the
+    language server, app/lsp/) reports."""
+    return _problems(report)
 
 
 def github(reports: list[dict[str, Any]]) -> str:
@@ -128,26 +154,86 @@ def junit(reports: list[dict[str, Any]]) -> str:
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(suites, "unicode")
 
 
+def source_root() -> Path:
+    """``%SRCROOT%``: the repository mclc runs in (the nearest directory up from the current
+    one that holds ``.git``), else the current directory."""
+    here = Path.cwd()
+    return next((d for d in (here, *here.parents) if (d / ".git").exists()), here)
+
+
+def artifact(file: str, root: Path) -> dict[str, str]:
+    """A SARIF artifact location: relative to ``%SRCROOT%`` when the file is under ``root``,
+    else a ``file://`` URI."""
+    absolute = Path(os.path.normpath(Path.cwd() / file))
+    try:
+        relative = absolute.relative_to(root)
+    except ValueError:
+        return {"uri": absolute.as_uri()}
+    return {"uri": quote(relative.as_posix()), "uriBaseId": "%SRCROOT%"}
+
+
+def _location(file: str, line: int, col: int, text: str = "") -> dict[str, Any]:
+    where: dict[str, Any] = {"physicalLocation": {
+        "artifactLocation": artifact(file, source_root()),
+        "region": {"startLine": line, "startColumn": col}}}
+    if text:
+        where["message"] = {"text": text}
+    return where
+
+
+def _step_text(step: dict[str, Any]) -> str:
+    """One firing of a counterexample in the mission's words: construct, what happened, the
+    actions it sends."""
+    text = f"{step.get('construct')}: {step.get('label')}"
+    if step.get("event"):
+        text += f" (on {step['event']})"
+    if step.get("actions"):
+        text += " — sends " + ", ".join(step["actions"])
+    return text
+
+
+def code_flow(steps: list[dict[str, Any]], loop: list[dict[str, Any]]) -> dict[str, Any]:
+    """A counterexample as one thread of locations, a step each; a lasso's loop follows its
+    run, its steps marked as the loop's."""
+    located = [(s, "") for s in steps] + [(s, f"loop {i}/{len(loop)}: ")
+                                          for i, s in enumerate(loop, 1)]
+    return {"message": {"text": "the steps that show it"
+                        + (", then the loop that repeats" if loop else "")},
+            "threadFlows": [{"locations": [
+                {"location": _location(s["file"], s["line"], s["col"],
+                                       f"{i}. {prefix}{_step_text(s)}"),
+                 "executionOrder": i, "nestingLevel": 0}
+                for i, (s, prefix) in enumerate(located, 1)]}]}
+
+
 def sarif(reports: list[dict[str, Any]]) -> str:
     rules: dict[str, dict[str, Any]] = {}
     results = []
     for report in reports:
         for p in _problems(report):
-            rules.setdefault(p["rule"], {"id": p["rule"],
-                                         "shortDescription": {"text": p["rule"]}})
-            results.append({
+            if p["rule"] not in rules:
+                rules[p["rule"]] = rule(p["rule"], p["level"], p["about"], p["hint"])
+            result: dict[str, Any] = {
                 "ruleId": p["rule"],
+                "ruleIndex": list(rules).index(p["rule"]),
                 "level": "error" if p["level"] == "error" else "warning",
-                "message": {"text": p["message"]},
-                "locations": [{"physicalLocation": {
-                    "artifactLocation": {"uri": p["file"]},
-                    "region": {"startLine": p["line"], "startColumn": p["col"]}}}],
-            })
+                "message": {"text": p["about"] if p.get("steps") or p.get("loop")
+                            else p["message"]},
+                "locations": [_location(p["file"], p["line"], p["col"])],
+            }
+            if p.get("steps") or p.get("loop"):
+                result["codeFlows"] = [code_flow(p.get("steps", []), p.get("loop", []))]
+            results.append(result)
+    driver: dict[str, Any] = {"name": "mclc", "rules": list(rules.values())}
+    base = docs_uri()
+    if base is not None:
+        driver["informationUri"] = base + "CI.md"
     doc = {
         "$schema": "https://json.schemastore.org/sarif-2.1.0.json",
         "version": "2.1.0",
-        "runs": [{"tool": {"driver": {"name": "mclc", "informationUri": TOOL_URI,
-                                      "rules": list(rules.values())}},
+        "runs": [{"tool": {"driver": driver},
+                  "originalUriBaseIds": {"%SRCROOT%": {"uri": source_root().as_uri() + "/"}},
+                  "columnKind": "unicodeCodePoints",
                   "results": results}],
     }
     return json.dumps(doc, indent=2)

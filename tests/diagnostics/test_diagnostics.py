@@ -28,6 +28,11 @@ INTERNAL = {
                               "closed-pipe path ends it (quietly, or one line for a full disk)",
     "app.safe_exit.ReportCut": "a signal after mcl run's end record: it cuts the report short "
                                "and the exit status stays the end record's",
+    "app.replay.Refused": "mcl replay's refusal of a log, caught in the command itself: one "
+                          "line at the log's line, exit 1 or 2",
+    "petri.execution.runlog._Refused": "a value json's reader must not take (a duplicate key, "
+                                       "a number out of range), caught by the reader of the "
+                                       "line and told as a LogError at its line",
 }
 
 

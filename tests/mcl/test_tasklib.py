@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import lark
 import pytest
 
-from mcl import tasklib
+from mcl import grammars, tasklib
 from diagnostics import MclError, Source
 from tests.support import cli, write
 
@@ -91,3 +92,62 @@ def test_a_broken_library_on_the_command_line_exits_2(tmp_path: Path) -> None:
     assert proc.returncode == 2
     assert f"{lib}:1:19: error: task T: unknown behaviour 'Nope'" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+# -- the shipped libraries come from the cache after their first load (issue 27) -------------
+
+def shipped(*names: str) -> list[Source]:
+    return [tasklib.shipped_source(f"{n}.tasks") for n in names]
+
+
+def test_the_shipped_library_is_parsed_once_then_loaded(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MCL_CACHE_DIR", str(tmp_path))
+    first = tasklib.load()
+    assert first == tasklib.build_library(shipped("core", "ictineu"))
+    assert [p.name.rsplit("-", 1)[0] for p in tmp_path.glob("library-*")] == [
+        "library-core+ictineu"]
+
+    def no_parse(sources: list[Source]) -> tasklib.Library:
+        raise AssertionError("the shipped library was parsed again")
+
+    monkeypatch.setattr(tasklib, "build_library", no_parse)
+    again = tasklib.load()
+    assert again == first and again is not first  # a copy of its own, free to change
+
+
+def test_an_edited_library_text_is_never_answered_from_the_cache(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MCL_CACHE_DIR", str(tmp_path))
+    core, ictineu = shipped("core", "ictineu")
+    tasklib.load_sources([core, ictineu])
+    edited = Source(ictineu.name, ictineu.text + "\nbehaviour Arm events closed;\n")
+    library = tasklib.load_sources([core, edited])
+    assert "Arm" in library.behaviours
+    assert "Arm" not in tasklib.load_sources([core, ictineu]).behaviours
+    broken = Source(ictineu.name, ictineu.text + "\ntask T() { start: enable Nope; }\n")
+    with pytest.raises(MclError, match="unknown behaviour 'Nope'"):
+        tasklib.load_sources([core, broken])
+
+
+def test_a_users_library_is_not_cached(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MCL_CACHE_DIR", str(tmp_path / "cache"))
+    library = tasklib.load_sources([*shipped("core"), Source("rov.tasks", ROV_TASKS)])
+    assert "TakeSample" in library.tasks
+    assert not list((tmp_path / "cache").glob("library-*"))
+
+
+def test_an_edited_grammar_or_another_lark_is_another_library_entry(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MCL_CACHE_DIR", str(tmp_path))
+    tasklib.load()
+    (first,) = tmp_path.glob("library-*")
+    shipped_grammar = grammars.grammar_text("tasks.lark")
+    monkeypatch.setattr(grammars, "grammar_text", lambda name: shipped_grammar + "\n// edit\n")
+    tasklib.load()
+    (second,) = tmp_path.glob("library-*")
+    assert second != first
+    monkeypatch.setattr(lark, "__version__", "0.0.0")
+    tasklib.load()
+    (third,) = tmp_path.glob("library-*")
+    assert third not in (first, second)

@@ -33,8 +33,9 @@ from mcl.api import compile_source
 from petri.net import Net
 from petri.semantics import Semantics
 from petri.formats.pnml import read_pnml
+from petri.verification import graph as graph_module
 from petri.verification import reachability as rg
-from petri.verification.graph import Adjacency, lasso, on_cycles
+from petri.verification.graph import Adjacency, Marked, lasso, on_cycles
 from petri.verification.properties import Verdict, verify
 from tests.strategies import LAMP_OFF, LAMP_ON, bodies, generic_calls, generic_missions
 
@@ -257,3 +258,54 @@ def test_the_verdict_keeps_the_graph_only_when_asked() -> None:
     assert verdict.space is not None
     assert (verdict.space.n_markings, len(verdict.space.src)) == (verdict.markings,
                                                                   verdict.arcs)
+
+
+def test_kept_columns_answer_as_the_markings_do() -> None:
+    """Marked.keep gathers columns once; every question it can answer from that copy gets
+    the answer the markings give, and the others are still asked of the markings."""
+    rng = np.random.default_rng(7)
+    markings = (rng.random((200, 40)) < 0.2).astype(np.uint8) * rng.integers(1, 3, (200, 40),
+                                                                            dtype=np.uint8)
+    plain, kept = Marked(markings), Marked(markings)
+    kept.keep([3, 9, 9, 17, 25, 31])
+    assert kept.kept is not None and kept.kept.shape == (200, 5)
+    rows = np.array([0, 5, 5, 199, 42])
+    for key in [(slice(None), [9, 3]), (slice(None), [25]), (rows, [31, 17, 3, 9, 25]),
+                np.ix_(rows, np.array([17, 3])), (slice(None), [3, 4]), (slice(2, 9), [5]),
+                (slice(None), slice(3, 9)), (rows, 31)]:
+        assert np.array_equal(kept[key], plain[key]), key
+        assert np.array_equal(plain[key], markings[key] > 0)
+    kept.kept[:, 0] = ~kept.kept[:, 0]  # the copy is what answers for kept columns
+    assert not np.array_equal(kept[:, [3]], plain[:, [3]])
+    assert np.array_equal(kept[:, [4]], plain[:, [4]])
+
+
+@pytest.mark.parametrize("narrow", [0, 3, 10**9])  # numpy only, both, Python only
+def test_reach_is_the_same_however_wide_a_level_is_expanded(
+        narrow: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(11)
+    n = 300
+    src = rng.integers(0, n, 900).astype(np.int32)
+    dst = rng.integers(0, n, 900).astype(np.int32)
+    graph = nx.DiGraph()
+    graph.add_nodes_from(range(n))
+    graph.add_edges_from(zip(src.tolist(), dst.tolist()))
+    within = rng.random(n) < 0.8
+    monkeypatch.setattr(graph_module, "NARROW", narrow)
+    adj = Adjacency(n, src, dst)
+    for sources in ([0], [5, 17, 17, 230], list(range(0, n, 7))):
+        forward = {s for s in sources} | {d for s in sources for d in nx.descendants(graph, s)}
+        backward = {s for s in sources} | {a for s in sources for a in nx.ancestors(graph, s)}
+        assert set(np.flatnonzero(adj.reach(np.array(sources)))) == forward
+        assert set(np.flatnonzero(adj.reach(np.array(sources), backward=True))) == backward
+        inside = graph.subgraph([m for m in range(n) if within[m]] + sources)
+        kept = {s for s in sources} | {d for s in sources for d in nx.descendants(inside, s)}
+        assert set(np.flatnonzero(adj.reach(np.array(sources), within=within))) == kept
+
+
+def test_unique_is_numpys() -> None:
+    rng = np.random.default_rng(3)
+    for size in (0, 1, 2, 50, 1000):
+        values = rng.integers(-5, 40, size)
+        assert np.array_equal(graph_module.unique(values), np.unique(values))
+        assert graph_module.unique(values).dtype == np.int64

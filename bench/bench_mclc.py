@@ -1,0 +1,130 @@
+"""Benchmark: ``mclc`` against its peer, a bare ``python -c pass``, in the same run (issue 27,
+deliverable 2: mclc as quick as a linter; not a test).
+
+Every case is a whole process as a user runs it (the ``mclc`` console script beside this
+Python), the cases taken in turn round after round (so a change of the machine's load falls on
+all alike), with the median of each over the rounds of: the CPU time (user + sys, of the
+process and its threads: what the process costs, however busy the machine), the wall time,
+and the largest peak resident memory. Each line gives its CPU time as a multiple of the bare
+Python's, and ``met`` or ``SHORT`` against its target:
+
+* the dam mission (missions/dam_inspection.mcl, verified): within 5x a bare Python's CPU;
+  the same with the cache off (MCL_CACHE_DIR='': the grammars and the task library rebuilt),
+  and compiled only (``--no-verify``), for comparison;
+* a 1,000-task sequence with 333 latches (bench_scale.latched_sequence): <= 1 s, <= 300 MB;
+* a 10,000-waypoint lawnmower survey (bench_scale.lawnmower): <= 10 s.
+
+The targets in seconds are held against the CPU time: mclc runs on one core, so on an idle
+machine its wall time is its CPU time, and on a busy one the wall time measures the others.
+The project's packages are byte-compiled first, as ``make`` does at install (where
+PYTHONDONTWRITEBYTECODE is set, a module edited since would be compiled on every call).
+
+    .venv/bin/python bench/bench_mclc.py [--runs N] [--only NAME ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+sys.path.insert(0, str(HERE))
+from bench_scale import latched_sequence, lawnmower
+
+PYTHON = sys.executable
+MCLC = str(Path(sys.executable).parent / "mclc")
+PACKAGES = ("app", "mission", "mcl", "petri", "mosaic", "vehicle_adapters", "vehicle",
+            "behaviours", "aal", "diagnostics")
+
+
+@dataclass
+class Case:
+    name: str
+    argv: list[str]
+    cpu_ratio: float | None = None  # target: CPU time within this multiple of the peer's
+    seconds: float | None = None  # target: wall time
+    megabytes: float | None = None  # target: peak memory
+    env: dict[str, str] = field(default_factory=dict)
+    runs: list[tuple[float, float, float, int]] = field(default_factory=list)
+
+    def median(self, i: int) -> float:
+        return statistics.median(r[i] for r in self.runs)
+
+
+def run(case: Case) -> None:
+    """One run of the case: (CPU seconds, wall seconds, peak MB, exit status) appended."""
+    start = time.perf_counter()
+    proc = subprocess.Popen(case.argv, cwd=REPO, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, env={**os.environ, **case.env})
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - start
+    case.runs.append((usage.ru_utime + usage.ru_stime, wall, usage.ru_maxrss / 1024,
+                      os.waitstatus_to_exitcode(status)))
+
+
+def verdict(value: float, target: float | None, what: str) -> str:
+    if target is None:
+        return ""
+    return f"  {what} {target:g}: {'met' if value <= target else 'SHORT'}"
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=7, help="rounds (median of; at least 5)")
+    parser.add_argument("--only", nargs="*", help="case names (default: all)")
+    args = parser.parse_args()
+    runs = max(5, args.runs)
+    subprocess.run([PYTHON, "-m", "compileall", "-q", *PACKAGES], cwd=REPO, check=True,
+                   stdout=subprocess.DEVNULL)
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        latched = work / "latched_1000.mcl"
+        latched.write_text(latched_sequence(), "utf-8")
+        lawn = work / "lawnmower_10000.mcl"
+        lawn.write_text(lawnmower(), "utf-8")
+        dam = str(REPO / "missions" / "dam_inspection.mcl")
+        peer = Case("python -c pass (the peer)", [PYTHON, "-c", "pass"])
+        cases = [
+            peer,
+            Case("mclc dam mission", [MCLC, dam], cpu_ratio=5.0),
+            Case("mclc dam, cache off", [MCLC, dam], env={"MCL_CACHE_DIR": ""}),
+            Case("mclc dam --no-verify", [MCLC, dam, "--no-verify"]),
+            Case("mclc 1,000 tasks, 333 latches", [MCLC, str(latched)], seconds=1.0,
+                 megabytes=300.0),
+            Case("mclc 10,000-waypoint lawnmower", [MCLC, str(lawn)], seconds=10.0),
+        ]
+        if args.only:
+            cases = [peer] + [c for c in cases[1:]
+                              if any(o.lower() in c.name.lower() for o in args.only)]
+        for case in cases[1:]:  # a first run fills the cache, as any user's first call does
+            run(case)
+            case.runs.clear()
+        for _ in range(runs):
+            for case in cases:
+                run(case)
+    print(f"whole processes, the cases in turn, median of {runs} rounds; CPU = user + sys "
+          f"(the ratio: against the peer's); {os.cpu_count()} cores, load "
+          f"{os.getloadavg()[0]:.1f}\n")
+    floor = peer.median(0)
+    for case in cases:
+        cpu, wall, peak = case.median(0), case.median(1), max(r[2] for r in case.runs)
+        ratio = cpu / floor
+        line = (f"{case.name:<32} CPU {cpu:6.3f} s ({ratio:5.1f}x)  wall {wall:6.3f} s  "
+                f"{peak:5.0f} MB  exit {case.runs[-1][3]}")
+        line += verdict(ratio, case.cpu_ratio, "CPU x <=")
+        line += verdict(cpu, case.seconds, "CPU s <=")
+        line += verdict(peak, case.megabytes, "MB <=")
+        print(line, flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

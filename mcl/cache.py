@@ -1,0 +1,119 @@
+"""The cache of what mclc would otherwise rebuild on every call from inputs that do not change
+between calls: the parsers of the two grammars (lark's tables, built from ``mcl/grammar/*.lark``)
+and the shipped task libraries (parsed and checked from ``mcl/tasks/*.tasks``).
+
+Each entry is one file in the user's cache folder, named by what it is and by the SHA-256 of
+everything it is built from, its *key*: for a parser, the grammar's text, lark's options, lark's
+version and Python's; for a library, the libraries' texts, the grammar's, lark's version and
+the source of the code that builds it (the ``mcl`` and ``diagnostics`` packages and
+``petri/net.py``). A key of contents is finer than the project's version: an edit of the
+grammar or of the code in a checkout changes it with no release, and a release that changes
+neither keeps it. So a cache never gives a wrong answer: what it holds for a key is what
+building from that key's inputs gives.
+
+The folder is ``$MCL_CACHE_DIR`` when set (set to the empty string: no cache), else
+``$XDG_CACHE_HOME/mcl-auv``, else ``~/.cache/mcl-auv``. A folder that cannot be made, a file
+that cannot be read or is not a whole entry (another process writing it, a disk error), a
+file that cannot be written, an entry another user owns (an entry is a pickle: loading it runs
+what it says): each is ignored without a word, and the thing is built as if there were no
+cache. Entries are written whole or not at all (a file of the process's own, renamed
+over the entry), and writing one removes the entries of the same name under other keys.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+import sys
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import IO, Any, TypeVar
+
+T = TypeVar("T")
+
+FORMAT = b"mcl-cache 1"  # bump when the layout of an entry changes
+FOLDER = "mcl-auv"  # the folder under the user's cache home
+
+
+def folder() -> Path | None:
+    """The cache folder (see the module's docstring), or None when the cache is off."""
+    chosen = os.environ.get("MCL_CACHE_DIR")
+    if chosen is not None:
+        return Path(chosen) if chosen else None
+    home = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(home) / FOLDER
+
+
+def key(parts: Iterable[str | bytes]) -> str:
+    """The SHA-256 (hex) of the parts, each length-prefixed (no two lists of parts share a
+    key by running together), with the entries' format and Python's version."""
+    digest = hashlib.sha256(FORMAT)
+    for part in (sys.version.encode(), *parts):
+        data = part.encode("utf-8") if isinstance(part, str) else part
+        digest.update(len(data).to_bytes(8, "little"))
+        digest.update(data)
+    return digest.hexdigest()
+
+
+def source_files(roots: Iterable[Path]) -> list[bytes]:
+    """The contents of the Python files at ``roots`` (a file, or every ``*.py`` under a
+    folder), in a fixed order with their names: the code part of a key."""
+    found: list[Path] = []
+    for root in roots:
+        found += sorted(root.rglob("*.py")) if root.is_dir() else [root]
+    return [part for path in found for part in (path.name.encode(), path.read_bytes())]
+
+
+def cached(name: str, parts: Callable[[], Iterable[str | bytes]], build: Callable[[], T],
+           save: Callable[[T, IO[bytes]], None] | None = None,
+           load: Callable[[IO[bytes]], T] | None = None) -> T:
+    """What ``build()`` returns, from the entry ``name`` under the key of ``parts()`` when
+    there is one, else built and stored there. ``save`` and ``load`` write and read the
+    object (default: pickle). Every failure of the cache falls back to ``build()``."""
+    place = folder()
+    if place is None:
+        return build()
+    try:
+        path = place / f"{name}-{key(parts())}.pickle"
+    except OSError:  # the code or a library cannot be read: no key, no cache
+        return build()
+    try:
+        with open(path, "rb") as f:
+            if mine(f.fileno()):
+                return load(f) if load is not None else pickle.load(f)
+    except Exception:  # noqa: BLE001 - absent, unreadable or partial: build it instead
+        pass
+    value = build()
+    store(path, name, value, save)
+    return value
+
+
+def mine(fd: int) -> bool:
+    """Whether the open entry belongs to this user: an entry is a pickle, and loading one runs
+    what it says, so one that another user could have put in a shared folder is not read."""
+    getuid = getattr(os, "getuid", None)  # POSIX; elsewhere the folder is the user's own
+    return getuid is None or os.fstat(fd).st_uid == getuid()
+
+
+def store(path: Path, name: str, value: Any, save: Callable[[Any, IO[bytes]], None] | None
+          ) -> None:
+    """Write the entry whole (a file of this process's own, renamed over it), then remove the
+    entries of ``name`` under other keys; any failure leaves the cache as it was."""
+    partial = path.with_name(f"{path.name}.{os.getpid()}.partial")
+    try:
+        path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+        with open(partial, "wb") as f:
+            if save is not None:
+                save(value, f)
+            else:
+                pickle.dump(value, f, protocol=pickle.HIGHEST_PROTOCOL)
+        os.replace(partial, path)
+        for old in path.parent.glob(f"{name}-*.pickle"):
+            if old != path:
+                old.unlink(missing_ok=True)
+    except Exception:  # noqa: BLE001 - unwritable, full, or not picklable: no entry
+        try:
+            partial.unlink(missing_ok=True)
+        except OSError:
+            pass
