@@ -66,6 +66,7 @@ bench: $(EXTRAS)
 	$(BIN)/python bench/bench_verifier.py
 	$(BIN)/python bench/bench_scale.py
 	$(BIN)/python bench/bench_mclc.py
+	$(BIN)/python bench/bench_lsp.py
 	$(BIN)/python bench/bench_timed.py
 	$(BIN)/python bench/bench_missions.py
 	$(BIN)/python bench/bench_player.py
