@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import functools
 import logging
 import statistics
 import sys
@@ -59,9 +60,9 @@ async def proved(client: LanguageClient, change: Any, version: int) -> float:
     change()
     while True:
         params = await asyncio.wait_for(waiting, WAIT)
-        got = params if isinstance(params, dict) else getattr(params, "_asdict", lambda: {
-            "version": getattr(params, "version", None)})()
-        if got.get("version") == version:
+        got = (params.get("version") if isinstance(params, dict)
+               else getattr(params, "version", None))
+        if got == version:
             return time.perf_counter() - start
         waiting = asyncio.ensure_future(client.wait_for_notification(PROVED))
 
@@ -92,7 +93,7 @@ async def measure(name: str, path: Path, rounds: int) -> tuple[str, list[float],
             for d in client.diagnostics.get(uri, []))))
         version += 1
         v = version
-        proofs.append(await proved(client, lambda: change(v, text), v))
+        proofs.append(await proved(client, functools.partial(change, v, text), v))
     await client.shutdown_session()
     return name, checks, proofs
 
