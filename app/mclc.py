@@ -27,6 +27,7 @@ from mission.exits import Exit  # the exit statuses of every command: docs/EXIT.
 # With several files, mclc exits with the worst status: internal, invalid, failed, undecided,
 # ok (docs/EXIT.md).
 SEVERITY = [Exit.OK, Exit.UNDECIDED, Exit.FAILED, Exit.INVALID, Exit.INTERNAL]  # worst last
+PNML_FILES = (".pnml", ".tgz")  # a Petri net: PNML, or a Model Checking Contest archive
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -41,7 +42,7 @@ def _parser() -> argparse.ArgumentParser:
                     + "). Every command's exit statuses: docs/EXIT.md.")
     p.add_argument("--version", action="version", version=version_text("mclc"))
     p.add_argument("files", nargs="+", metavar="FILE",
-                   help="mission files (.mcl) or Petri nets (.pnml)")
+                   help="mission files (.mcl) or Petri nets (.pnml, or a contest .tgz)")
     p.add_argument("--tasks", action="append", default=[], metavar="FILE",
                    help="task library (.tasks); repeat for several (default: the Ictineu "
                         "library shipped with mcl)")
@@ -238,7 +239,7 @@ def _diag_json(d: Diagnostic) -> dict[str, Any]:
 def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str, Any]]:
     if args.graphml is not None:
         check_output(args.graphml, "--graphml")
-    if path.lower().endswith(".pnml"):
+    if path.lower().endswith(PNML_FILES):
         return _pnml(path, args, fmt)
     params = parse_params(args.param, args.params)
     compiled = compile_file(path, args.tasks or None, params)
@@ -298,8 +299,8 @@ def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:
 
 
 def _pnml(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str, Any]]:
-    """``mclc NET.pnml``: the state-space report of a P/T net (explicit with ``--method
-    explicit``, else explicit or symbolic, whichever fits)."""
+    """``mclc NET.pnml`` (or a contest ``.tgz``): the state-space report of a P/T net
+    (explicit with ``--method explicit``, else explicit or symbolic, whichever fits)."""
     from app.reports.pnml import pnml_text
     from petri.formats.pnml import PnmlError
     from petri.verification.pnml_report import analyse_graph, load_net
