@@ -198,7 +198,10 @@ def mavlink_main(argv: list[str]) -> int:
     _announce(ready, f"vehicle auv ready on {url}")
     try:
         vehicle.run()
-    except (OSError, signing.SigningError) as exc:
+    except signing.SigningError as exc:  # e.g. a signing state it cannot write
+        print(f"mcl vehicle: error: {exc}", file=sys.stderr)
+        return Exit.INVALID
+    except OSError as exc:
         print(f"mcl vehicle: error: {args.mavlink}: {exc}", file=sys.stderr)
         return Exit.INVALID
     print("\n".join(vehicle.summary()), flush=True)
