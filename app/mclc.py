@@ -22,6 +22,7 @@ from mcl.api import Compiled, compile_file, parse_params
 
 from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
 from app.version import version_text
+from app import arguments
 from mission.exits import Exit  # the exit statuses of every command: docs/EXIT.md
 
 # With several files, mclc exits with the worst status: internal, invalid, failed, undecided,
@@ -31,7 +32,7 @@ PNML_FILES = (".pnml", ".tgz")  # a Petri net: PNML, or a Model Checking Contest
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = arguments.Parser(
         prog="mclc",
         description="Compile MCL missions to Petri nets and verify them. "
                     f"Exit {int(Exit.OK)} every file verified, {int(Exit.FAILED)} a property "
