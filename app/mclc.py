@@ -31,9 +31,9 @@ SEVERITY = [Exit.OK, Exit.UNDECIDED, Exit.FAILED, Exit.INVALID, Exit.INTERNAL]  
 PNML_FILES = (".pnml", ".tgz")  # a Petri net: PNML, or a Model Checking Contest archive
 
 
-def _parser() -> argparse.ArgumentParser:
+def _parser(prog: str = "mclc") -> argparse.ArgumentParser:
     p = arguments.Parser(
-        prog="mclc",
+        prog=prog,
         description="Compile MCL missions to Petri nets and verify them. "
                     f"Exit {int(Exit.OK)} every file verified, {int(Exit.FAILED)} a property "
                     f"fails, {int(Exit.INVALID)} invalid input, {int(Exit.INTERNAL)} a bug in "
@@ -153,40 +153,40 @@ def check_output(path: str, option: str) -> None:
         raise OutputError(path, option, f"{str(folder)!r} is not a folder")
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, prog: str = "mclc") -> int:
     """The command; a closed standard output ends it quietly with the status so far, one
     that cannot be written (a full disk) with one line and exit 2."""
     open_standard_streams()
     worst = [Exit.OK]
     try:
         with watched_stdout():
-            return _main(argv, worst)
+            return _main(argv, worst, prog)
     except BrokenPipeError as exc:
         stdout_closed()
-        line = lost_line("mclc", exc)
+        line = lost_line(prog, exc)
         if line is None:
             return worst[0]
         print(line, file=sys.stderr)
         return max(worst[0], Exit.INVALID, key=SEVERITY.index)
 
 
-def _main(argv: list[str] | None, so_far: list[Exit]) -> int:
-    args = _parser().parse_args(argv)
+def _main(argv: list[str] | None, so_far: list[Exit], prog: str) -> int:
+    args = _parser(prog).parse_args(argv)
     fmt = "json" if args.json else (args.format or "text")
     from app.reports.duration import parse_limits
 
     try:
         args.limits = parse_limits(args.deadline, args.battery, args.reserve)
     except ValueError as exc:
-        print(f"mclc: error: {exc}", file=sys.stderr)
+        print(f"{prog}: error: {exc}", file=sys.stderr)
         return Exit.INVALID
     outputs = [args.dot, args.dot_tasks, args.pnml, args.net_json, args.graphml]
     if len(args.files) > 1 and any(outputs):
-        print("mclc: error: --dot, --dot-tasks, --pnml, --net-json and --graphml take one "
+        print(f"{prog}: error: --dot, --dot-tasks, --pnml, --net-json and --graphml take one "
               "input file", file=sys.stderr)
         return Exit.INVALID
     if args.graphml is not None and (args.no_verify or args.method == "structural"):
-        print(f"mclc: error: --graphml writes the graph the explicit route explores, and "
+        print(f"{prog}: error: --graphml writes the graph the explicit route explores, and "
               f"{'--no-verify' if args.no_verify else 'the structural route'} explores none: "
               "use --method explicit", file=sys.stderr)
         return Exit.INVALID

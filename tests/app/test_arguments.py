@@ -26,6 +26,7 @@ COMMANDS: dict[str, tuple[Main, list[str]]] = {
     "mcl monitor": (mcl.main, ["monitor"]),
     "mcl mosaic": (mcl.main, ["mosaic"]),
     "mcl replay": (mcl.main, ["replay"]),
+    "mcl check": (mcl.main, ["check"]),  # mclc's options, its refusals named mcl check
     "python -m app.pnml_report": (app.pnml_report.main, []),
 }
 MISTAKES = {  # what a new user types wrongly, and what the line must say
