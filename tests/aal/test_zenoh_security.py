@@ -418,3 +418,21 @@ def test_mcl_run_refuses_it_in_one_line_before_connecting(two_cns: Path,
     errors = [line for line in result.stderr.splitlines() if "error" in line]
     assert len(errors) == 1 and "2 common names" in errors[0], result.stderr
     assert "waiting for the vehicle" not in result.stderr and "Traceback" not in result.stderr
+
+
+def test_why_zenoh_grants_a_two_cn_certificate_its_first_cn(two_cns: Path) -> None:
+    """The reason for the refusal above, checked against Zenoh itself: past our commands (a
+    peer that builds its own configuration), the vehicle's access control takes the
+    player's rights from the first CN alone. If Zenoh ever matches every CN, this fails and
+    the refusal can be revisited."""
+    endpoint = free_endpoint("tls")
+    with vehicle_process(endpoint, *tls_options(two_cns, "vehicle")):
+        taken = {}
+        for who in ("player-operator", "operator-player"):
+            forged = Security(tls_ca=two_cns / "ca.pem", tls_cert=two_cns / f"{who}.pem",
+                              tls_key=two_cns / f"{who}.key")
+            with secured_player(endpoint, forged) as player:  # it waits to be taken
+                taken[who] = not player.lost
+                if player.lost:
+                    assert "does not take this run" in player.lost_reason, player.lost_reason
+        assert taken == {"player-operator": True, "operator-player": False}, taken
