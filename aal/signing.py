@@ -256,5 +256,21 @@ def enable(conn: Any, key: bytes, *, require: bool, link_id: int,
                        initial_timestamp=start, link_id=link_id)
     conn.mav.check_signature = state.check_signature  # the floor first, then pymavlink's
     state._seen_bad = int(conn.mav.signing.badsig_count)
-    state.save()
+    try:
+        state.save()
+    except OSError as exc:  # without its state, a restarted end would take a replay
+        raise state_error(timestamp_file, exc) from None
     return state
+
+
+def state_error(timestamp_file: Path | None, exc: OSError) -> SigningError:
+    """The refusal of a signing state that cannot be written (``$MCL_STATE_DIR`` read-only,
+    not a directory, on a full disk): one line naming the directory and why."""
+    folder = str(timestamp_file.parent) if timestamp_file is not None else "?"
+    given = os.environ.get(ENV_STATE_DIR)
+    where = f"${ENV_STATE_DIR} {given}" if given else folder
+    reason = (f"cannot keep the MAVLink signing timestamp in {folder} "
+              f"({exc.strerror or exc})")
+    return SigningError(f"{where}: {reason}", where, reason,
+                        f"set ${ENV_STATE_DIR} to a directory this user can write: the "
+                        "timestamp kept there refuses a replayed capture after a restart")

@@ -81,12 +81,14 @@ def for_role(role: str, endpoint: str, *, user: str | None = None,
     _check_role(role)
     tls = _tls_files(tls_ca, tls_cert, tls_key)
     if endpoint.startswith("tls/") and not tls:
-        raise ValueError(f"the endpoint {endpoint} is TLS: give --tls-ca, --tls-cert and "
+        raise ValueError(f"{endpoint}: a TLS endpoint: give --tls-ca, --tls-cert and "
                          "--tls-key (see docs/ZENOH_SECURITY.md)")
     if tls and not endpoint.startswith("tls/"):
-        raise ValueError(f"--tls-* options need a tls/HOST:PORT endpoint, not {endpoint} "
-                         "(the certificates would not be used)")
+        raise ValueError(f"{endpoint}: not a TLS endpoint: --tls-* options need a "
+                         "tls/HOST:PORT endpoint (the certificates would not be used)")
     ca, cert, key = tls or (None, None, None)
+    if cert is not None:
+        common_names("--tls-cert", cert)
     if role == "vehicle":
         player_user = _name(player_user or DEFAULT_PLAYER, "--player-user")
         player_cn = _name(player_cn or DEFAULT_PLAYER, "--player-cn")
@@ -136,10 +138,38 @@ def _tls_files(ca: str | None, cert: str | None, key: str | None
         return None
     missing = [f"--{o}" for o, v in given.items() if not v]
     if missing:
-        raise ValueError(f"mutual TLS needs --tls-ca, --tls-cert and --tls-key: "
+        first = next(f"--{o} {v}" for o, v in given.items() if v)
+        raise ValueError(f"{first}: mutual TLS needs --tls-ca, --tls-cert and --tls-key: "
                          f"{' and '.join(missing)} missing")
     ca_pem, cert_pem, key_pem = (_pem(f"--{o}", str(v)) for o, v in given.items())
     return ca_pem, cert_pem, key_pem
+
+
+def common_names(option: str, path: Path) -> tuple[str, ...]:
+    """The common names of the certificate in ``path`` (none or one); ValueError if it has
+    more than one, or is not a certificate.
+
+    Zenoh's access control matches a peer's certificate on the *first* CN of its subject:
+    one issued as ``/CN=player/CN=operator`` acts as the player though a reader of its
+    subject may take it for an operator's (and ``/CN=operator/CN=player`` the other way
+    round). Matching all CNs is not ours to do (Zenoh does the matching, on the vehicle), so
+    a certificate with more than one CN is refused wherever a command reads one: one CN, one
+    identity (docs/ZENOH_SECURITY.md)."""
+    from cryptography import x509  # lazy: start-up speed (only with --tls-*)
+    from cryptography.x509.oid import NameOID
+
+    try:
+        cert = x509.load_pem_x509_certificate(path.read_bytes()[:MAX_FILE_BYTES])
+    except (ValueError, OSError) as exc:
+        raise ValueError(f"{option} {path}: not a PEM certificate ({exc})") from None
+    names = tuple(str(a.value) for a in cert.subject.get_attributes_for_oid(
+        NameOID.COMMON_NAME))
+    if len(names) > 1:
+        raise ValueError(f"{option} {path}: a certificate with {len(names)} common names "
+                         f"({', '.join(repr(n) for n in names)}): Zenoh's access control "
+                         "matches only the first, so its identity is ambiguous; issue it "
+                         "with one CN")
+    return names
 
 
 MAX_FILE_BYTES = 1 << 20  # a PEM file, a password, a user list: far less than 1 MiB

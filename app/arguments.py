@@ -5,9 +5,25 @@ is exit 2 and one line, never a traceback nor a value that means nothing (``--se
 from __future__ import annotations
 
 import argparse
+from typing import NoReturn
+
+from mission.exits import Exit
 
 MAX_SEED = 2**64 - 1  # the simulated vehicle's random generators take any seed in 0..2**64-1
 MAX_SPEED = 1000.0  # mcl vehicle --speed, times wall time: past it no vehicle keeps its clock
+
+
+class Parser(argparse.ArgumentParser):
+    """The command line of every command (mclc, each mcl subcommand, app.pnml_report): an
+    ArgumentParser whose refusal is one line, ``PROG: error: MESSAGE``, exit 2 (invalid input), like every
+    other refusal, instead of argparse's usage (eight lines for ``mcl run``) above it. A
+    message that names no argument (one missing, one not known) gets a one-line hint."""
+
+    def error(self, message: str) -> NoReturn:
+        line = f"{self.prog}: error: {' '.join(message.split())}\n"
+        if not message.startswith("argument "):
+            line += f"  hint: '{self.prog} --help' lists what it takes\n"
+        self.exit(Exit.INVALID, line)
 
 
 def seed(text: str) -> int:

@@ -9,8 +9,8 @@ from app import mclc
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``mcl check ARGS`` is ``mclc ARGS``."""
-    return mclc.main(argv)
+    """``mcl check ARGS`` is ``mclc ARGS`` (its errors named ``mcl check``)."""
+    return mclc.main(argv, prog="mcl check")
 
 
 if __name__ == "__main__":

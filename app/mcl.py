@@ -23,6 +23,7 @@ from typing import cast
 
 from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
 from app.version import VersionAction
+from app import arguments
 from mission.exits import Exit
 
 COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
@@ -45,7 +46,7 @@ COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
 
 def _parser() -> argparse.ArgumentParser:
     """What ``mcl --help`` and ``mcl`` without a known subcommand say."""
-    p = argparse.ArgumentParser(prog="mcl", description="Run MCL missions and check their logs.")
+    p = arguments.Parser(prog="mcl", description="Run MCL missions and check their logs.")
     p.add_argument("--version", action=VersionAction)
     sub = p.add_subparsers(dest="command", required=True)
     for name, (_, line) in COMMANDS.items():

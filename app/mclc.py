@@ -23,16 +23,18 @@ from mcl.api import Compiled, compile_file, parse_params
 
 from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
 from app.version import VersionAction
+from app import arguments
 from mission.exits import Exit  # the exit statuses of every command: docs/EXIT.md
 
 # With several files, mclc exits with the worst status: internal, invalid, failed, undecided,
 # ok (docs/EXIT.md).
 SEVERITY = [Exit.OK, Exit.UNDECIDED, Exit.FAILED, Exit.INVALID, Exit.INTERNAL]  # worst last
+PNML_FILES = (".pnml", ".tgz")  # a Petri net: PNML, or a Model Checking Contest archive
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="mclc",
+def _parser(prog: str = "mclc") -> argparse.ArgumentParser:
+    p = arguments.Parser(
+        prog=prog,
         description="Compile MCL missions to Petri nets and verify them. "
                     f"Exit {int(Exit.OK)} every file verified, {int(Exit.FAILED)} a property "
                     f"fails, {int(Exit.INVALID)} invalid input, {int(Exit.INTERNAL)} a bug in "
@@ -42,7 +44,7 @@ def _parser() -> argparse.ArgumentParser:
                     + "). Every command's exit statuses: docs/EXIT.md.")
     p.add_argument("--version", action=VersionAction)
     p.add_argument("files", nargs="+", metavar="FILE",
-                   help="mission files (.mcl) or Petri nets (.pnml)")
+                   help="mission files (.mcl) or Petri nets (.pnml, or a contest .tgz)")
     p.add_argument("--tasks", action="append", default=[], metavar="FILE",
                    help="task library (.tasks); repeat for several (default: the Ictineu "
                         "library shipped with mcl)")
@@ -161,7 +163,7 @@ def one_blas_thread() -> None:
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, prog: str = "mclc") -> int:
     """The command; a closed standard output ends it quietly with the status so far, one
     that cannot be written (a full disk) with one line and exit 2."""
     one_blas_thread()
@@ -169,33 +171,33 @@ def main(argv: list[str] | None = None) -> int:
     worst = [Exit.OK]
     try:
         with watched_stdout():
-            return _main(argv, worst)
+            return _main(argv, worst, prog)
     except BrokenPipeError as exc:
         stdout_closed()
-        line = lost_line("mclc", exc)
+        line = lost_line(prog, exc)
         if line is None:
             return worst[0]
         print(line, file=sys.stderr)
         return max(worst[0], Exit.INVALID, key=SEVERITY.index)
 
 
-def _main(argv: list[str] | None, so_far: list[Exit]) -> int:
-    args = _parser().parse_args(argv)
+def _main(argv: list[str] | None, so_far: list[Exit], prog: str) -> int:
+    args = _parser(prog).parse_args(argv)
     fmt = "json" if args.json else (args.format or "text")
     from app.reports.duration import parse_limits
 
     try:
         args.limits = parse_limits(args.deadline, args.battery, args.reserve)
     except ValueError as exc:
-        print(f"mclc: error: {exc}", file=sys.stderr)
+        print(f"{prog}: error: {exc}", file=sys.stderr)
         return Exit.INVALID
     outputs = [args.dot, args.dot_tasks, args.pnml, args.net_json, args.graphml]
     if len(args.files) > 1 and any(outputs):
-        print("mclc: error: --dot, --dot-tasks, --pnml, --net-json and --graphml take one "
+        print(f"{prog}: error: --dot, --dot-tasks, --pnml, --net-json and --graphml take one "
               "input file", file=sys.stderr)
         return Exit.INVALID
     if args.graphml is not None and (args.no_verify or args.method == "structural"):
-        print(f"mclc: error: --graphml writes the graph the explicit route explores, and "
+        print(f"{prog}: error: --graphml writes the graph the explicit route explores, and "
               f"{'--no-verify' if args.no_verify else 'the structural route'} explores none: "
               "use --method explicit", file=sys.stderr)
         return Exit.INVALID
@@ -249,7 +251,7 @@ def _diag_json(d: Diagnostic) -> dict[str, Any]:
 def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str, Any]]:
     if args.graphml is not None:
         check_output(args.graphml, "--graphml")
-    if path.lower().endswith(".pnml"):
+    if path.lower().endswith(PNML_FILES):
         return _pnml(path, args, fmt)
     params = parse_params(args.param, args.params)
     compiled = compile_file(path, args.tasks or None, params)
@@ -309,8 +311,8 @@ def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:
 
 
 def _pnml(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str, Any]]:
-    """``mclc NET.pnml``: the state-space report of a P/T net (explicit with ``--method
-    explicit``, else explicit or symbolic, whichever fits)."""
+    """``mclc NET.pnml`` (or a contest ``.tgz``): the state-space report of a P/T net
+    (explicit with ``--method explicit``, else explicit or symbolic, whichever fits)."""
     from app.reports.pnml import pnml_text
     from petri.formats.pnml import PnmlError
     from petri.verification.pnml_report import analyse_graph, load_net

@@ -27,6 +27,7 @@ from collections.abc import Sequence
 from typing import Any, TextIO
 
 from mission.exits import Exit
+from app import arguments
 
 REFRESH = 0.25  # wall s between redraws
 
@@ -245,7 +246,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     from app import zenoh_options
 
-    p = argparse.ArgumentParser(prog="mcl monitor",
+    p = arguments.Parser(prog="mcl monitor",
                                 description="Watch a mission and its vehicle over Zenoh.")
     p.add_argument("--zenoh", default=DEFAULT_ENDPOINT, metavar="ENDPOINT",
                    help=f"the vehicle's endpoint (default {DEFAULT_ENDPOINT})")

@@ -17,6 +17,7 @@ from pathlib import Path
 from mission.exits import Exit
 from mosaic.blending import MM_PER_PX
 from mosaic.images import SurveyError, find
+from app import arguments
 
 
 def _scale(text: str) -> float:
@@ -30,7 +31,7 @@ def _scale(text: str) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="mcl mosaic", description="Make the photomosaic of a "
+    p = arguments.Parser(prog="mcl mosaic", description="Make the photomosaic of a "
                                 "run's images (paper 002 §6); see docs/MOSAIC.md.")
     p.add_argument("run", metavar="RUN", help="the run log (RUN.jsonl, its images in "
                    "RUN.images/) or the images folder")

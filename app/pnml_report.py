@@ -13,12 +13,12 @@ P/T net or an option out of range: invalid input; ``--method symbolic`` on a net
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import traceback
 
 from app.reports.pnml import pnml_text
+from app import arguments
 from mission.exits import Exit
 from petri.formats.pnml import PnmlError
 from petri.verification import symbolic
@@ -26,7 +26,7 @@ from petri.verification.pnml_report import analyse, load_net
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m app.pnml_report",
+    parser = arguments.Parser(prog="python -m app.pnml_report",
                                      description="State-space report of a PNML P/T net.")
     parser.add_argument("model", help="a .pnml file or a Model Checking Contest .tgz")
     parser.add_argument("--json", action="store_true", help="print the report as JSON")

@@ -27,12 +27,13 @@ from mcl.api import Compiled, compile_file
 from mission.exits import Exit
 
 from app.guard import guarded
+from app import arguments
 
 MAX_TASKS_BYTES = 4 * 1024 * 1024  # a task library the log's header names, at most
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="mcl replay")
+    p = arguments.Parser(prog="mcl replay")
     p.add_argument("log", metavar="RUN.jsonl")
     p.add_argument("mission", metavar="MISSION.mcl")
     p.add_argument("--tasks", action="append", default=[], metavar="FILE")

@@ -57,7 +57,7 @@ STOP_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
 
 
 def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
-    r = argparse.ArgumentParser(prog="mcl run")
+    r = arguments.Parser(prog="mcl run")
     r.add_argument("mission", metavar="MISSION.mcl")
     r.add_argument("--vehicle", default="sim", metavar="KIND[:WHERE]",
                    help=vehicles.help_text())

@@ -55,7 +55,7 @@ def _stop_on_signals() -> threading.Event:
 def _zenoh_parser() -> argparse.ArgumentParser:
     from aal.zenoh import DEFAULT_ENDPOINT
 
-    p = argparse.ArgumentParser(
+    p = arguments.Parser(
         prog="mcl vehicle", description="Serve the simulated Ictineu over Zenoh.",
         epilog="For an ArduSub-like MAVLink vehicle instead: mcl vehicle --mavlink URL "
                "(see 'mcl vehicle --mavlink URL --help' and docs/MAVLINK.md).")
@@ -136,7 +136,7 @@ def _zenoh_problem(args: argparse.Namespace) -> str | None:
 def _mavlink_parser() -> argparse.ArgumentParser:
     from aal.signing import ENV_KEY
 
-    p = argparse.ArgumentParser(
+    p = arguments.Parser(
         prog="mcl vehicle",
         description="Serve the simulated Ictineu as an ArduSub-like MAVLink 2 vehicle.")
     p.add_argument("--mavlink", required=True, metavar="URL",
@@ -198,7 +198,10 @@ def mavlink_main(argv: list[str]) -> int:
     _announce(ready, f"vehicle auv ready on {url}")
     try:
         vehicle.run()
-    except (OSError, signing.SigningError) as exc:
+    except signing.SigningError as exc:  # e.g. a signing state it cannot write
+        print(f"mcl vehicle: error: {exc}", file=sys.stderr)
+        return Exit.INVALID
+    except OSError as exc:
         print(f"mcl vehicle: error: {args.mavlink}: {exc}", file=sys.stderr)
         return Exit.INVALID
     print("\n".join(vehicle.summary()), flush=True)

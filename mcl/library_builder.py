@@ -27,6 +27,11 @@ from mcl.ast_builder import AstBuilder
 from mcl.parser import suggest
 from mcl.values import FIELDS, KINDS, NUMERIC, UNITS, Range, check, limits, to_text
 
+# The event sources the player itself raises (mcl.declarations.BUILTIN_SOURCES), with what:
+# a behaviour of one of these names would have its events taken for the player's.
+RESERVED_BEHAVIOURS = {"Link": "Link.lost, when the link to the vehicle is lost",
+                       "Mission": "Mission.abort, the external stop"}
+
 
 class LibraryBuilder:
     """Turns the lark parse tree of one ``*.tasks`` file into declarations, refusing what
@@ -59,6 +64,10 @@ class LibraryBuilder:
             drives, Tree) else []
         evs = tuple(str(t) for t in events.children) if isinstance(events, Tree) else ()
         assert isinstance(name, Token)
+        if str(name) in RESERVED_BEHAVIOURS:
+            raise error(self.source, f"behaviour {name}: the name is reserved: the player "
+                        f"itself raises {RESERVED_BEHAVIOURS[str(name)]}", self.span(name),
+                        "give the behaviour another name", code="library-reserved")
         return Behaviour(str(name), tuple(str(t) for t in tokens), evs, self.span(name),
                          tuple(self.span(t) for t in tokens), watts)
 

@@ -20,7 +20,7 @@ import lark
 from lark import Lark, Tree, UnexpectedInput
 
 import diagnostics
-from diagnostics import Diagnostic, MclError, Source, Span, error, read_source
+from diagnostics import Diagnostic, MclError, Source, Span, error, file_error, read_source
 from petri import net as petri_net
 from petri.net import POINT_FIELDS
 
@@ -45,7 +45,8 @@ from mcl.values import UNITS, check, limits
 # The declarations, importable from here too (mcl.tasklib.Library, ...).
 __all__ = ["ACTION_KINDS", "BUILTIN_SOURCES", "DEFAULT_DOFS", "SHIPPED", "ActionSpec",
            "Behaviour", "Estimate", "Expr", "Field", "Formal", "Library", "TaskForm",
-           "is_shipped", "load", "load_sources", "shipped_source"]
+           "LIBRARY_FILES", "is_library_file", "is_shipped", "load", "load_sources",
+           "shipped_source"]
 
 
 @lru_cache(maxsize=1)
@@ -67,6 +68,15 @@ def is_shipped(name: str) -> bool:
     return name in SHIPPED
 
 
+LIBRARY_FILES = "a task library is a file whose name ends in .tasks (its content was not read)"
+
+
+def is_library_file(path: str) -> bool:
+    """A path that may name a task library: a ``.tasks`` file. Nothing else is read as one,
+    so that a syntax error never quotes a line of a file that is not (``/etc/passwd``)."""
+    return path.endswith(".tasks")
+
+
 def shipped_source(name: str) -> Source:
     """A file shipped in mcl/tasks/ (e.g. ``core.tasks``) as a source."""
     text = resources.files("mcl").joinpath("tasks", name).read_text("utf-8")
@@ -77,6 +87,11 @@ def load(paths: list[str] | None = None) -> Library:
     """The core library plus the given ``.tasks`` files (default: the Ictineu library)."""
     sources = [shipped_source("core.tasks")]
     paths = paths or ["ictineu"]
+    for path in paths:
+        if not (is_shipped(path) or is_library_file(path)):
+            raise file_error(path, f"is not a task library: {LIBRARY_FILES}",
+                             f"--tasks takes a .tasks file or a shipped library: "
+                             f"{', '.join(SHIPPED)}", code="not-a-library")
     sources += [shipped_source(f"{p}.tasks") if is_shipped(p) else read_source(p)
                 for p in paths]
     return load_sources(sources)

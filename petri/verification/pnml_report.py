@@ -12,9 +12,12 @@ report is :mod:`app.reports.pnml`'s.
 
 from __future__ import annotations
 
+import shutil
+import stat
 import tarfile
 import tempfile
 import time
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -167,16 +170,63 @@ def symbolic_report(net: Net, result: Any) -> Report:
     return report
 
 
+MAX_ARCHIVE_ENTRIES = 10_000  # a contest archive holds a dozen files; past this, not one
+MAX_MODEL_BYTES = 1 << 30  # the contest's largest model.pnml is a few hundred MB
+
+
 def load_net(path: str | Path, workdir: str | Path | None = None) -> Net:
-    """Read a PNML file, or the ``model.pnml`` inside a contest ``.tgz`` archive."""
+    """Read a PNML file, or the ``model.pnml`` inside a contest ``.tgz`` archive.
+
+    Only a regular file is opened (a FIFO or a device would be read for ever); in an archive
+    only a regular ``model.pnml`` entry is read, copied by its content and never by its name
+    (an entry's ``../`` or absolute path, a link or a device are refused, not followed).
+    Every problem is a :class:`PnmlError` naming the file."""
     path = Path(path)
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise PnmlError("no such file", str(path)) from None
+    except OSError as exc:
+        raise PnmlError(f"cannot be read: {exc.strerror}", str(path)) from None
+    if not stat.S_ISREG(mode):
+        kind = "a directory" if stat.S_ISDIR(mode) else "not a regular file (a FIFO or a device)"
+        raise PnmlError(f"is {kind}: not a PNML file nor a contest archive", str(path))
     if path.suffix not in (".tgz", ".gz"):
         return read_pnml(path)
-    if not path.exists():
-        raise PnmlError("no such file", str(path))
-    with tempfile.TemporaryDirectory(dir=workdir) as tmp, tarfile.open(path) as archive:
-        members = [m for m in archive.getmembers() if m.name.endswith("/model.pnml")]
-        if not members:
-            raise PnmlError("the archive holds no */model.pnml", str(path))
-        archive.extract(members[0], tmp, filter="data")
-        return read_pnml(Path(tmp) / members[0].name)
+    with tempfile.TemporaryDirectory(dir=workdir) as tmp:
+        model = Path(tmp) / "model.pnml"
+        try:
+            with tarfile.open(path, "r:*") as archive:
+                _copy_model(archive, model, str(path))
+        except (tarfile.TarError, OSError, EOFError, zlib.error) as exc:
+            reason = ("not a tar file, compressed or not" if isinstance(exc, tarfile.ReadError)
+                      else str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+            raise PnmlError(f"not a contest archive (a .tgz holding */model.pnml): {reason}",
+                            str(path)) from None
+        try:
+            return read_pnml(model)
+        except PnmlError as exc:  # named as the archive's entry, not the temporary copy
+            raise PnmlError(exc.message, f"{path}:model.pnml", exc.line, exc.col) from None
+
+
+def _copy_model(archive: tarfile.TarFile, target: Path, where: str) -> None:
+    """Copy the archive's first ``*/model.pnml`` entry to ``target``: PnmlError if it has
+    none, if that entry is not a regular file, or if it is larger than MAX_MODEL_BYTES."""
+    for count, member in enumerate(archive):
+        if count >= MAX_ARCHIVE_ENTRIES:
+            raise PnmlError(f"more than {MAX_ARCHIVE_ENTRIES:,} entries and no "
+                            "*/model.pnml among them: not a contest archive", where)
+        if member.name != "model.pnml" and not member.name.endswith("/model.pnml"):
+            continue
+        if not member.isreg():
+            raise PnmlError(f"its entry {member.name[:200]!r} is a link or a device, not "
+                            "a file: refused", where)
+        if member.size > MAX_MODEL_BYTES:
+            raise PnmlError(f"its {member.name[:200]!r} is larger than "
+                            f"{MAX_MODEL_BYTES:,} bytes", where)
+        source = archive.extractfile(member)
+        assert source is not None  # a regular entry always has content
+        with source, open(target, "wb") as out:
+            shutil.copyfileobj(source, out)
+        return
+    raise PnmlError("the archive holds no */model.pnml", where)

@@ -11,6 +11,9 @@ timestamp never goes back across runs.
 from __future__ import annotations
 
 import hashlib
+import os
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +23,7 @@ from pymavlink.dialects.v20 import ardupilotmega
 
 from aal import signing
 from diagnostics import MclError
+from tests.support import REPO, budget, free_udp_port, subprocess_env
 
 KEY = bytes(range(32))
 
@@ -249,3 +253,63 @@ def test_a_forged_signature_does_not_move_its_stream_timestamp() -> None:
     assert receiver.receive(forger.heartbeat()) == ["BAD_DATA"]
     assert receiver.receive(sender.heartbeat()) == ["HEARTBEAT"]
     assert (state.rejected_bad, state.accepted_signed) == (1, 1)
+
+
+# -- a signing state that cannot be kept is refused at the start (issue 22) ---------------------
+def unwritable_state(tmp_path: Path, how: str) -> Path:
+    """A state directory enable() cannot write: a file where the directory should be, or a
+    read-only directory (only for a user whom permissions bind: not root)."""
+    if how == "not a directory":
+        (tmp_path / "file").write_text("x", "ascii")
+        return tmp_path / "file" / "state"
+    if os.geteuid() == 0:
+        pytest.skip("root writes into a read-only directory: permissions cannot be tested")
+    folder = tmp_path / "read-only"
+    folder.mkdir()
+    folder.chmod(0o555)
+    return folder
+
+
+@pytest.mark.parametrize("how", ["not a directory", "read-only"])
+def test_a_state_directory_that_cannot_be_written_is_refused_naming_it(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, how: str) -> None:
+    state = unwritable_state(tmp_path, how)
+    monkeypatch.setenv(signing.ENV_STATE_DIR, str(state))
+    with pytest.raises(signing.SigningError) as caught:
+        _enable(End(1), timestamp_file=signing.default_timestamp_file(KEY, "vehicle"))
+    text = str(caught.value)
+    assert text.startswith(f"${signing.ENV_STATE_DIR} {state}: cannot keep the MAVLink "
+                           "signing timestamp"), text
+    assert "\n" not in text and "this user can write" in caught.value.format()
+
+
+def test_without_the_variable_the_refusal_names_the_folder(tmp_path: Path,
+                                                           monkeypatch: pytest.MonkeyPatch
+                                                           ) -> None:
+    monkeypatch.delenv(signing.ENV_STATE_DIR, raising=False)
+    state = unwritable_state(tmp_path, "not a directory")
+    with pytest.raises(signing.SigningError) as caught:
+        _enable(End(1), timestamp_file=state / "player.timestamp")
+    assert str(caught.value).startswith(f"{state}: cannot keep"), str(caught.value)
+
+
+@pytest.mark.parametrize("command", ["vehicle", "run"])
+def test_mcl_refuses_an_unwritable_state_in_one_line_exit_2(tmp_path: Path,
+                                                            command: str) -> None:
+    state = unwritable_state(tmp_path, "not a directory")
+    key = tmp_path / "key"
+    key.write_text("a passphrase\n", "ascii")
+    port = free_udp_port()
+    if command == "vehicle":
+        argv = ["vehicle", "--mavlink", f"udpin:127.0.0.1:{port}"]
+    else:
+        argv = ["run", str(REPO / "missions" / "dam_inspection.mcl"), "--log",
+                str(tmp_path / "run.jsonl"), "--vehicle", f"mavlink:udpout:127.0.0.1:{port}"]
+    proc = subprocess.run([sys.executable, "-m", "app.mcl", *argv, "--signing-key", str(key)],
+                          capture_output=True, text=True, timeout=budget(30),
+                          env=subprocess_env(**{signing.ENV_STATE_DIR: str(state)}))
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if not line.startswith("  hint:")]
+    assert len(lines) == 1, proc.stderr
+    assert f"${signing.ENV_STATE_DIR} {state}" in lines[0] and "Not a directory" in lines[0]
+    assert "Traceback" not in proc.stderr and "internal error" not in proc.stderr

@@ -121,6 +121,14 @@ def assert_clear(command: str, argv: list[str], code: int, err: str) -> None:
     if lines[0].startswith("usage:"):  # argparse's own refusal: its last line says why
         assert ": error: " in lines[-1], (argv, err)
         return
+    parsed = re.match(r"^(mclc|mcl( \w+)?): error: (argument (\S+):|unrecognized arguments: "
+                      r"(\S+)|the following arguments are required: )", lines[0])
+    if parsed:  # argparse's own refusal in one line (app.arguments.Parser): names the option
+        options = (parsed[4] or parsed[5] or "").split("/")  # as given, or abbreviated
+        assert any(o.startswith(a) for o in options for a in argv if a.startswith("-")) or \
+            parsed[3].startswith("the following"), (argv, err)
+        assert len([line for line in lines if not line.startswith("  hint:")]) == 1, err
+        return
     first = next((line for line in lines if "error" in line), lines[0])
     # "NAME: error: ...", or with the command first ("mcl vehicle: error: NAME ...")
     text = re.sub(r"^(mclc|mcl( \w+)?)?:? ?error: ", "", first)

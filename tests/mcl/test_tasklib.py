@@ -151,3 +151,34 @@ def test_an_edited_grammar_or_another_lark_is_another_library_entry(
     tasklib.load()
     (third,) = tmp_path.glob("library-*")
     assert third not in (first, second)
+
+
+# -- a file that is not a task library is never read as one, nor quoted (issue 22) ---------------
+SECRET = "root:x:0:0:root:/root:/bin/bash\n"
+
+
+@pytest.mark.parametrize("how", ["USES", "--tasks"])
+def test_a_file_that_is_not_a_task_library_is_named_not_quoted(tmp_path: Path, how: str) -> None:
+    secret = write(tmp_path, SECRET, "passwd")
+    if how == "USES":
+        mission = write(tmp_path, f'USES "{secret}";\nMISSION m {{ Surface() }}\n')
+        proc = cli("mclc", str(mission))
+        where = f"{mission}:1:6: error: '{secret}' is not a task library"
+    else:
+        mission = write(tmp_path, "MISSION m { Surface() }\n")
+        proc = cli("mclc", str(mission), "--tasks", str(secret))
+        where = f"{secret}:1:1: error: is not a task library"
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert proc.stderr.startswith(where), proc.stderr
+    assert "ends in .tasks" in proc.stderr
+    assert "root" not in proc.stderr.replace(str(tmp_path), ""), proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_a_tasks_file_with_a_mistake_is_still_quoted(tmp_path: Path) -> None:
+    lib = write(tmp_path, "behaviour Arm events done\n", "arm.tasks")
+    mission = write(tmp_path, f'USES "{lib.name}";\nMISSION m {{ Wait(1 s) }}\n')
+    proc = cli("mclc", str(mission))
+    assert proc.returncode == 2 and f"{lib}:1:22: error: task library" in proc.stderr, \
+        proc.stderr
+    assert "behaviour Arm events done" in proc.stderr

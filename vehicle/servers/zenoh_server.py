@@ -26,7 +26,8 @@ failsafe.
 
 Restarts: players announce themselves with ``mcl/<v>/alive/player/<run>``. The vehicle takes
 actions from the latest run only; an action of another run, or one whose ``seq`` is not above
-the last taken from its run, is stale and dropped (counted in telemetry ``stale``). When a new
+the last taken from its run, is stale and dropped (counted in telemetry ``stale``); an action
+that names no run is dropped as invalid (counted in ``dropped``). When a new
 run appears the vehicle first switches every behaviour off, so nothing a previous mission
 enabled is left on. A restarted vehicle process starts with every behaviour off.
 """
@@ -112,19 +113,31 @@ class VehicleServer:
                 self.dropped += 1
             log.warning("vehicle dropped an invalid action: %s", exc)
             return
+        self.take(action)
+
+    def take(self, action: ActionMessage) -> str | None:
+        """Queue ``action`` for the loop if it belongs to the current run and is new; else
+        count it and return why it was dropped.
+
+        An action must name its run: one without a run id belongs to no run, so nothing
+        tells it from a replay (into this run or the next), and it is dropped as invalid."""
         with self._lock:
-            stale = ((action.run and action.run != self._run)
-                     or action.seq <= self._last_seq.get(action.run, -1))
-            if stale:
+            if not action.run:
+                self.dropped += 1
+                reason = "it names no run (every action names the player run it belongs to)"
+            elif action.run != self._run or action.seq <= self._last_seq.get(action.run, -1):
                 self.stale += 1
+                reason = (f"stale (run {action.run}, seq {action.seq}; current run "
+                          f"{self._run or '-'})")
             else:
                 self._last_seq[action.run] = action.seq
-        if stale:
-            log.warning("vehicle dropped a stale action (run %s, seq %d; current run %s): "
-                        "%s %s", action.run or "-", action.seq, self._run or "-", action.kind,
+                reason = ""
+        if reason:
+            log.warning("vehicle dropped an action: %s: %s %s", reason, action.kind,
                         action.behaviour)
-            return
+            return reason
         self._actions.put(action)
+        return None
 
     def _on_player(self, sample: zenoh.Sample) -> None:
         run = str(sample.key_expr).rpartition("/")[2]
