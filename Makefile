@@ -25,7 +25,7 @@ $(RUNTIME): pyproject.toml
 	touch $(RUNTIME)
 
 $(EXTRAS): $(RUNTIME)
-	$(PIP_INSTALL) -e '.[test,dev,large]'
+	$(PIP_INSTALL) -e '.[test,dev]'
 	touch $(EXTRAS)
 
 demo: $(RUNTIME)
