@@ -29,7 +29,7 @@ $(RUNTIME): pyproject.toml
 	touch $(RUNTIME)
 
 $(EXTRAS): $(RUNTIME)
-	$(PIP_INSTALL) -e '.[test,dev,large]'
+	$(PIP_INSTALL) -e '.[test,dev]'
 	touch $(EXTRAS)
 
 demo: $(RUNTIME)

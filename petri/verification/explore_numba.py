@@ -15,133 +15,15 @@ hash table grows, rather than kept: a word per marking saved). The compiled code
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import numpy as np
-from llvmlite import ir
-from numba import njit, types
-from numba.core import cgutils
-from numba.extending import intrinsic
+from numba import get_num_threads, njit
 
-_C1 = np.uint64(0x9E3779B97F4A7C15)  # golden-ratio multiplier
-_C2 = np.uint64(0xBF58476D1CE4E5B9)  # splitmix64 finaliser constants
-_C3 = np.uint64(0x94D049BB133111EB)
-
-
-@njit(cache=True, inline="always")
-def _hash(row: np.ndarray) -> np.uint64:
-    """Hash of a row of words: multiply-xor per word, then the splitmix64 finaliser."""
-    h = np.uint64(len(row))
-    for k in range(len(row)):
-        h = (h ^ row[k]) * _C1
-        h ^= h >> np.uint64(29)
-    h = (h ^ (h >> np.uint64(30))) * _C2
-    h = (h ^ (h >> np.uint64(27))) * _C3
-    return h ^ (h >> np.uint64(31))
-
-
-@intrinsic
-def _prefetch(typingctx, table, row):
-    """Ask the processor to start loading ``table[row, 0]`` into the cache (LLVM's
-    ``llvm.prefetch``: read, high locality, data cache) and go on without waiting for it.
-
-    numba has no prefetch of its own; a plain read would make the loop wait for the value.
-    """
-    if not (isinstance(table, types.Array) and table.ndim == 2):
-        return None
-
-    def codegen(context, builder, signature, args):
-        array_type, _ = signature.args
-        array = context.make_array(array_type)(context, builder, args[0])
-        zero = context.get_constant(types.intp, 0)
-        pointer = cgutils.get_item_pointer(context, builder, array_type, array,
-                                           [args[1], zero])
-        byte_pointer = ir.IntType(8).as_pointer()
-        i32 = ir.IntType(32)
-        function = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(ir.VoidType(), [byte_pointer, i32, i32, i32]),
-            "llvm.prefetch.p0")
-        builder.call(function, [builder.bitcast(pointer, byte_pointer), i32(0), i32(3),
-                                i32(1)])
-        return context.get_dummy_value()
-
-    return types.void(table, types.intp), codegen
-
-
-# -- the hash table ---------------------------------------------------------------------
-# Two layouts, chosen by row width. Small rows (at most _INLINE_WORDS words) are stored in the
-# table itself, so a lookup touches one cache line: table[slot] = [row number + 1, words...].
-# Wider rows would make the table too big; then table[slot, 0] = (high 32 bits of the hash)
-# << 32 | (row number + 1), and a matching fingerprint is confirmed against words[row].
-# In both layouts 0 in column 0 means an empty slot. The table is kept at most 70% full
-# (_full), so every probe sequence ends at an empty slot.
-
-_INLINE_WORDS = 4
-_LOW32 = np.uint64(0xFFFFFFFF)
-
-
-@njit(cache=True, inline="always")
-def _lookup(table, mask, h, row, words):
-    """(slot, row number) of ``row``, or (the empty slot where it belongs, -1)."""
-    inline = table.shape[1] > 1
-    fingerprint = h >> np.uint64(32)
-    slot = h & mask
-    entry = table[slot, 0]
-    while entry != 0:
-        if inline:
-            same = True
-            for k in range(row.shape[0]):
-                if table[slot, k + 1] != row[k]:
-                    same = False
-                    break
-            if same:
-                return slot, np.int64(entry) - 1
-        elif entry >> np.uint64(32) == fingerprint:
-            j = np.int64(entry & _LOW32) - 1
-            same = True
-            for k in range(row.shape[0]):
-                if words[j, k] != row[k]:
-                    same = False
-                    break
-            if same:
-                return slot, j
-        slot = (slot + np.uint64(1)) & mask
-        entry = table[slot, 0]
-    return slot, np.int64(-1)
-
-
-@njit(cache=True, inline="always")
-def _store(table, slot, j, h, row):
-    if table.shape[1] > 1:
-        table[slot, 0] = np.uint64(j + 1)
-        for k in range(row.shape[0]):
-            table[slot, k + 1] = row[k]
-    else:
-        table[slot, 0] = ((h >> np.uint64(32)) << np.uint64(32)) | np.uint64(j + 1)
-
-
-@njit(cache=True, inline="always")
-def _full(rows, size):
-    """Whether a table of ``size`` slots is too small for ``rows`` rows (load above 0.7)."""
-    return 10 * rows > 7 * size
-
-
-def _new_table(size: int, n_words: int) -> np.ndarray:
-    width = n_words + 1 if n_words <= _INLINE_WORDS else 1
-    return np.zeros((size, width), dtype=np.uint64)
-
-
-@njit(cache=True)
-def _rehash(table, words, n):
-    """Insert rows 0..n-1 into the empty ``table``."""
-    mask = np.uint64(table.shape[0] - 1)
-    for i in range(n):
-        h = _hash(words[i])
-        slot = h & mask
-        while table[slot, 0] != 0:  # never full: a free slot exists
-            slot = (slot + np.uint64(1)) & mask
-        _store(table, slot, i, h, words[i])
-
+from petri.verification.explore_parallel import WIDE, expand_chunk, insert_chunk
+from petri.verification.numba_rows import (candidates, hash_row, lookup, new_table, prefetch,
+                                         rehash, store, too_full)
 
 # -- the search ---------------------------------------------------------------------------
 # The hot loop (_expand) runs over arrays it never reallocates; when the next batch of markings
@@ -152,50 +34,18 @@ def _rehash(table, words, n):
 
 _RUNNING, _DONE, _MARKING_LIMIT, _TOKEN_LIMIT, _GROW_BATCH = -1, 0, 1, 2, 3
 _BATCH = 256  # successors computed before they are looked up (see _expand)
-_SORT_BELOW = 24  # candidate lists shorter than this are insertion-sorted
-
-
-@njit(cache=True, inline="always")
-def _candidates(i, cells, words, per_word, rd_ptr, rd_t, sources, cand):
-    """The transitions that may be enabled at marking ``i`` (those whose first input is
-    marked, and those without inputs) into ``cand``, in increasing order; their number.
-
-    Only the non-zero words of the row are looked into, so the cost is that of scanning the
-    row plus the transitions indexed under its marked places, not of every transition."""
-    nc = 0
-    for w in range(words.shape[1]):
-        if words[i, w] == 0:
-            continue
-        for k in range(w * per_word, (w + 1) * per_word):
-            if cells[i, k] != 0:
-                for r in range(rd_ptr[k], rd_ptr[k + 1]):
-                    cand[nc] = rd_t[r]
-                    nc += 1
-    for r in range(sources.shape[0]):
-        cand[nc] = sources[r]
-        nc += 1
-    if nc < _SORT_BELOW:  # the successors in transition order (the BFS numbering)
-        for a in range(1, nc):
-            x = cand[a]
-            b = a - 1
-            while b >= 0 and cand[b] > x:
-                cand[b + 1] = cand[b]
-                b -= 1
-            cand[b + 1] = x
-    else:
-        cand[:nc] = np.sort(cand[:nc])
-    return nc
 
 
 @njit(cache=True)
-def _expand(i, n, e, cells, words, parent, parent_t, keep, src, dst, tr, degree, fired,
+def _expand(i, n, e, wide, cells, words, parent, parent_t, keep, src, dst, tr, degree, fired,
             table, batch_cells, batch, batch_h, batch_src, batch_t, cand, in_ptr, in_place,
             in_w, eff_ptr, eff_place, eff_delta, rd_ptr, rd_t, sources, max_markings,
             max_tokens):
     """Expand markings i, i+1, ... while every successor surely fits in the arrays.
 
     Returns (i, n, e, status, at, t): the next marking to expand, the numbers of markings and
-    arcs, and _RUNNING (grow the arrays and call again), _GROW_BATCH (marking i has ``at``
+    arcs, and _RUNNING (grow the arrays, or ``wide`` markings or more wait for the parallel
+    chunks: call again), _GROW_BATCH (marking i has ``at``
     candidate successors: grow the batch to hold them) or a final status; on a limit, the
     markings before ``at`` have all their arcs recorded (see explore_rows).
 
@@ -213,13 +63,13 @@ def _expand(i, n, e, cells, words, parent, parent_t, keep, src, dst, tr, degree,
     capacity = batch.shape[0]
     while i < n:
         if (n + capacity > words.shape[0] or (keep and e + capacity > src.shape[0])
-                or _full(n + capacity, table.shape[0])):
+                or too_full(n + capacity, table.shape[0]) or n - i >= wide):
             return i, n, e, _RUNNING, -1, -1
         # 1. successors of markings i, i+1, ... (whole markings only) into the batch
         b = 0
         over_at, over_t = -1, -1  # a firing that would exceed max_tokens
         while i < n and over_at < 0:
-            nc = _candidates(i, cells, words, per_word, rd_ptr, rd_t, sources, cand)
+            nc = candidates(i, cells, words, per_word, rd_ptr, rd_t, sources, cand)
             if b + nc > capacity:
                 if b == 0:
                     return i, n, e, _GROW_BATCH, nc, -1
@@ -242,18 +92,18 @@ def _expand(i, n, e, cells, words, parent, parent_t, keep, src, dst, tr, degree,
                     batch_cells[b, eff_place[a]] = value
                 if over_at >= 0:
                     break
-                h = _hash(batch[b])
+                h = hash_row(batch[b])
                 batch_h[b] = h
                 batch_src[b] = i
                 batch_t[b] = t
-                _prefetch(table, np.int64(h & mask))
+                prefetch(table, np.int64(h & mask))
                 b += 1
             i += 1
         # 2. look up and insert them in order
         for s in range(b):
             row = batch[s]
             h = batch_h[s]
-            slot, j = _lookup(table, mask, h, row, words)
+            slot, j = lookup(table, mask, h, row, words)
             if j < 0:
                 if n >= max_markings:
                     return i, n, e, _MARKING_LIMIT, batch_src[s], -1
@@ -264,7 +114,7 @@ def _expand(i, n, e, cells, words, parent, parent_t, keep, src, dst, tr, degree,
                 parent_t[j] = batch_t[s]
                 if not keep:
                     degree[j] = 0
-                _store(table, slot, j, h, row)
+                store(table, slot, j, h, row)
                 n += 1
             if keep:
                 src[e] = batch_src[s]
@@ -282,15 +132,79 @@ def _expand(i, n, e, cells, words, parent, parent_t, keep, src, dst, tr, degree,
 @njit(cache=True)
 def _start(table, cells, words, parent, parent_t, m0):
     cells[0] = m0
-    h = _hash(words[0])
+    h = hash_row(words[0])
     parent[0] = -1
     parent_t[0] = -1
-    _store(table, h & np.uint64(table.shape[0] - 1), 0, h, words[0])
+    store(table, h & np.uint64(table.shape[0] - 1), 0, h, words[0])
 
 
-def _grown(a: np.ndarray, n: int) -> np.ndarray:
-    """A copy of ``a`` with twice the rows; the first ``n`` rows are kept."""
-    b = np.empty((2 * a.shape[0],) + a.shape[1:], dtype=a.dtype)
+# The rows are reserved up front for at most RESERVE_BYTES (and max_markings) markings: the
+# memory is only taken as rows are written, and a search that stays within it never copies its
+# rows to a grown array (which held two copies at once: Kanban-PT-00005 peaked 60 MB higher).
+RESERVE_BYTES = 128 << 20
+# Each thread's buffer of successors in a parallel chunk (explore_parallel): at most this many
+# successors, and at most BUFFER_BYTES of rows (at least one marking's successors).
+BUFFER_SUCCESSORS = 65536
+BUFFER_BYTES = 4 << 20
+
+
+# Whether to expand wide frontiers in parallel: None decides by the machine's load (see
+# parallel_threads), True always (on numba's threads, even one: the tests), False never.
+PARALLEL: bool | None = None
+
+
+def parallel_threads() -> int:
+    """The threads of the parallel phase, 0 for none.
+
+    None when :data:`PARALLEL` is False, or is None and the machine has no idle core (1-minute load average above the cores less one
+    half): every chunk waits for its slowest thread, and on a busy machine a thread can wait a
+    whole time slice for a core. Kanban-PT-00005 at load 10 on 2 cores took 7-12 s of wall
+    time in parallel against 5.7-7.5 s on one core, measured in alternation (issue 27); its
+    parallel phase is 1.5 s of the 2.1 s of CPU, the rest is the sequential insertion.
+    """
+    if PARALLEL is False:
+        return 0
+    if PARALLEL is None:
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
+        if cores < 2 or get_num_threads() < 2 or os.getloadavg()[0] > cores - 0.5:
+            return 0
+    return int(get_num_threads())
+
+
+class _Buffers:
+    """Per-thread buffers of the parallel phase (see :mod:`petri.verification.explore_parallel`)."""
+
+    def __init__(self, threads: int, width: int, dtype: Any, n_trans: int) -> None:
+        n_words = width * np.dtype(dtype).itemsize // 8
+        size = max(1, n_trans, min(BUFFER_SUCCESSORS, BUFFER_BYTES // (8 * n_words)))
+        self.threads, self.size = threads, size
+        self.cells = np.empty((threads, size, width), dtype=dtype)
+        self.rows = self.cells.view(np.uint64)
+        self.h = np.empty((threads, size), dtype=np.uint64)
+        self.src = np.empty((threads, size), dtype=np.int64)
+        self.t = np.empty((threads, size), dtype=np.int64)
+        self.j = np.empty((threads, size), dtype=np.int64)
+        self.counts = np.empty(threads, dtype=np.int64)
+        self.stops = np.empty(threads, dtype=np.int64)
+        self.overs = np.empty(threads, dtype=np.int64)
+        self.cands = np.empty((threads, max(1, n_trans)), dtype=np.int64)
+
+    def starts(self, i: int, n: int, e: int) -> np.ndarray:
+        """The first marking of each thread's range, and the chunk's end: the markings from
+        ``i`` whose successors should fit the buffers (``e`` arcs from ``i`` markings so far)."""
+        per_marking = e / i if i else self.cands.shape[1]
+        per_thread = max(1, int(self.size / (1.25 * max(1.0, per_marking))))
+        end = min(n, i + self.threads * per_thread)
+        return i + (end - i) * np.arange(self.threads + 1, dtype=np.int64) // self.threads
+
+
+def _grown(a: np.ndarray, n: int, rows: int) -> np.ndarray:
+    """A copy of ``a`` with at least ``rows`` rows (twice as many, or more); the first ``n``
+    rows are kept."""
+    size = a.shape[0]
+    while size < rows:
+        size *= 2
+    b = np.empty((size,) + a.shape[1:], dtype=a.dtype)
     b[:n] = a[:n]
     return b
 
@@ -306,19 +220,27 @@ def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
     ``arcs`` the arcs are src, dst, tr (views of larger buffers) and degree, fired are None;
     without, src, dst, tr are empty and degree (successors of each marking) and fired
     (firings of each transition) count them.
+
+    While at least :data:`WIDE` markings wait to be expanded, and a core is idle (see
+    :data:`PARALLEL`), they are expanded a chunk at a time on numba's threads
+    (:mod:`petri.verification.explore_parallel`); the numbering is the same.
     """
     m0 = net.row
     n_trans = len(net.in_ptr) - 1
     capacity = _BATCH
-    cap = 1024 + 2 * capacity
+    threads = parallel_threads()
+    buffers = _Buffers(threads, len(m0), m0.dtype, n_trans) if threads else None
+    slack = capacity if buffers is None else max(capacity, threads * buffers.size)
+    cap = max(1024 + 2 * slack, min(max_markings + slack, RESERVE_BYTES // m0.nbytes))
     cells = np.empty((cap, len(m0)), dtype=m0.dtype)
     parent = np.empty(cap, dtype=np.int32)
     parent_t = np.empty(cap, dtype=np.int32)
-    src, dst, tr = (np.empty(4 * cap if arcs else 0, dtype=np.int32) for _ in range(3))
+    src, dst, tr = (np.empty(4 * (1024 + 2 * slack) if arcs else 0, dtype=np.int32)
+                    for _ in range(3))
     degree = np.zeros(0 if arcs else cap, dtype=np.int32)
     fired = np.zeros(0 if arcs else max(1, n_trans), dtype=np.int64)
     n_words = cells.view(np.uint64).shape[1]
-    table = _new_table(1 << (4 * cap - 1).bit_length(), n_words)  # a power of two
+    table = new_table(1 << (4 * (1024 + 2 * slack) - 1).bit_length(), n_words)
     batch_cells = np.empty((capacity, len(m0)), dtype=m0.dtype)
     batch_h = np.empty(capacity, dtype=np.uint64)
     batch_src, batch_t = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
@@ -327,36 +249,49 @@ def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
     if not arcs:
         degree[0] = 0
 
+    wide = WIDE if buffers is not None else 2**62
     i, n, e, status, at, t = 0, 1, 0, _RUNNING, -1, -1
-    for _ in range(400):  # each round doubles an array; 2**200 is beyond any memory
+    while status == _RUNNING:  # each round expands a marking or more, or grows an array
+        if n + slack > len(cells):
+            cells = _grown(cells, n, n + slack)
+            parent, parent_t = _grown(parent, n, n + slack), _grown(parent_t, n, n + slack)
+            if not arcs:
+                degree = _grown(degree, n, n + slack)
+        if arcs and e + slack > len(src):
+            src, dst, tr = (_grown(a, e, e + slack) for a in (src, dst, tr))
+        if too_full(n + slack, len(table)):
+            del table  # the old table goes before the new one comes
+            size = 1 << (10 * (n + slack) // 7).bit_length()
+            table = new_table(size, n_words)
+            rehash(table, cells.view(np.uint64), n)
+        if buffers is not None and n - i >= WIDE:
+            starts = buffers.starts(i, n, e)
+            expand_chunk(starts, cells, cells.view(np.uint64), table, buffers.cells,
+                         buffers.rows, buffers.h, buffers.src, buffers.t, buffers.j,
+                         buffers.counts, buffers.stops, buffers.overs, buffers.cands,
+                         net.in_ptr, net.in_place, net.in_w, net.eff_ptr, net.eff_place,
+                         net.eff_delta, net.rd_ptr, net.rd_t, net.sources, max_tokens)
+            i, n, e, status, at, t = insert_chunk(
+                starts, n, e, cells.view(np.uint64), parent, parent_t, arcs, src, dst, tr,
+                degree, fired, table, buffers.rows, buffers.h, buffers.src, buffers.t,
+                buffers.j, buffers.counts, buffers.stops, buffers.overs, max_markings)
+            if status == _RUNNING and i >= n:
+                status = _DONE
+            continue
         i, n, e, status, at, t = _expand(
-            i, n, e, cells, cells.view(np.uint64), parent, parent_t, arcs, src, dst, tr,
+            i, n, e, wide, cells, cells.view(np.uint64), parent, parent_t, arcs, src, dst, tr,
             degree, fired, table, batch_cells, batch_cells.view(np.uint64), batch_h,
             batch_src, batch_t, cand, net.in_ptr, net.in_place, net.in_w, net.eff_ptr,
             net.eff_place, net.eff_delta, net.rd_ptr, net.rd_t, net.sources, max_markings,
             max_tokens)
         if status == _GROW_BATCH:  # marking i has more candidates than the batch holds
             capacity = max(2 * capacity, at)
+            slack = max(slack, capacity)
             batch_cells = np.empty((capacity, len(m0)), dtype=m0.dtype)
             batch_h = np.empty(capacity, dtype=np.uint64)
             batch_src = np.empty(capacity, dtype=np.int64)
             batch_t = np.empty(capacity, dtype=np.int64)
             status = _RUNNING
-            continue
-        if status != _RUNNING:
-            break
-        if n + capacity > len(cells):
-            cells = _grown(cells, n)
-            parent, parent_t = _grown(parent, n), _grown(parent_t, n)
-            if not arcs:
-                degree = _grown(degree, n)
-        if arcs and e + capacity > len(src):
-            src, dst, tr = _grown(src, e), _grown(dst, e), _grown(tr, e)
-        if _full(n + capacity, len(table)):
-            del table  # the old table goes before the new one comes
-            size = 1 << (10 * (n + capacity) // 7).bit_length()
-            table = _new_table(size, n_words)
-            _rehash(table, cells.view(np.uint64), n)
     del table
     return (cells[:n], parent[:n], parent_t[:n], src[:e], dst[:e], tr[:e], status, at, t,
             None if arcs else degree[:n], None if arcs else fired[:n_trans])
