@@ -43,6 +43,11 @@ def key_of(block: ast.Block) -> Key:
 MISSION_KEY: Key = ("MISSION", 0, 0)  # the mission as a whole (whatever its line)
 
 
+def block_id(key: Key) -> str:
+    """A block's name for people and pages: ``task@34:9``, ``TRY@33:5``, ``MISSION``."""
+    return "MISSION" if key == MISSION_KEY else f"{key[0]}@{key[1]}:{key[2]}"
+
+
 @dataclass(frozen=True)
 class Change:
     """A block's state from mission time ``t`` on (until its next change)."""
@@ -85,6 +90,7 @@ class BlockStates:
     def __init__(self, net: Net):
         self.effects = effects(net)
         self.changes: list[Change] = []
+        self.current: dict[Key, str] = {}  # each started block's state now
         self.start: float | None = None  # the player's time at the first record (live)
 
     def __call__(self, record: Record) -> None:
@@ -96,7 +102,14 @@ class BlockStates:
     def fired(self, index: int, t: float) -> None:
         """Transition ``index`` fired at mission time ``t``."""
         if 0 <= index < len(self.effects):
-            self.changes.extend(Change(t, k, state) for k, state in self.effects[index])
+            for k, state in self.effects[index]:
+                self.changes.append(Change(t, k, state))
+                self.current[k] = state
+
+    def now(self) -> dict[str, str]:
+        """Each started block's state now, by its :func:`block_id` (JSON-ready: the
+        mission status a player publishes carries it as ``blocks``)."""
+        return {block_id(k): state for k, state in self.current.items()}
 
     def read(self, records: Iterable[dict[str, Any]]) -> BlockStates:
         """Take a run log's records (mission time already): its ``fire`` records."""

@@ -22,15 +22,10 @@ from typing import Any
 from mcl import ast, printer
 from mcl.analysis.duration import analyse, json_number
 from mcl.api import Compiled
-from mission.blocks import KINDS, MISSION_KEY, BlockStates, Key, key_of
+from mission.blocks import KINDS, BlockStates, block_id, key_of
 
 PICTURES = {"mosaic": ".mosaic.png", "coverage": ".coverage.png", "trajectory": ".svg"}
 MAX_TRACK = 5000  # points sent to the page, at most (a long run is thinned evenly)
-
-
-def block_id(key: Key) -> str:
-    """``task@34:9``, ``TRY@33:5``, ``MISSION``: a block's id on the page."""
-    return "MISSION" if key == MISSION_KEY else f"{key[0]}@{key[1]}:{key[2]}"
 
 
 def title(block: ast.Block) -> str:

@@ -16,6 +16,7 @@ import pytest
 
 from mcl.api import Compiled, compile_file
 from mission import run_mission
+from mission.vehicle import Vehicle
 from mission.blocks import MISSION_KEY, STATES, BlockStates, key_of
 from petri.execution.player import Record
 from tests.support import MISSIONS, write
@@ -115,3 +116,31 @@ def test_a_loop_shows_its_last_round(tmp_path: Path) -> None:
     assert states.at(2.5)[key_of(work)] == "ok"
     assert states.at(3.0)[key_of(work)] == "running"
     assert key_of(work) not in states.at(0.5)
+
+
+class Feed:
+    """A status feed (as the Zenoh adapter is one): keeps what the player publishes."""
+
+    run = "run-1"
+
+    def __init__(self) -> None:
+        self.published: list[dict[str, Any]] = []
+
+    def publish_status(self, status: dict[str, Any]) -> None:
+        self.published.append(status)
+
+
+def test_the_published_status_carries_each_blocks_state(dam: Compiled, tmp_path: Path) -> None:
+    """What ``mcl view --zenoh`` reads: each status names the state of every block started so
+    far, as the log's firings so far give it."""
+    feed = Feed()
+    vehicle = Vehicle(InProcess(ScriptedVehicle(load_script(str(SCRIPTS / "dam_leak.toml")))),
+                      status=feed)
+    run_mission(dam, vehicle, log=tmp_path / "r.jsonl", verify=False)
+    fires = [json.loads(line) for line in (tmp_path / "r.jsonl").read_text().splitlines()
+             if '"kind":"fire"' in line]
+    assert len(feed.published) > 10
+    for status in feed.published:  # as the firings so far give them
+        expected = BlockStates(dam.net).read(fires[:status["fired"]]).now()
+        assert status["blocks"] == expected, status
+    assert feed.published[-1]["blocks"]["task@49:9"] == "fail"

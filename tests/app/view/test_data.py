@@ -9,10 +9,10 @@ from typing import Any
 
 import pytest
 
-from app.view.data import block_id, line_of, page_data, pictures, track
+from app.view.data import line_of, page_data, pictures, track
 from mcl.analysis.duration import analyse
 from mcl.api import compile_file
-from mission.blocks import key_of
+from mission.blocks import block_id, key_of
 from tests.app.view.runs import DAM, dam_log
 
 
