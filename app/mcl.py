@@ -36,7 +36,7 @@ COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
                "mcl mosaic RUN.jsonl [--scale MM_PER_PX]"),
     "view": ("app.view.command", "show a run in a browser: the mission's tree with each "
              "block's state at any instant, the timeline, the track, the bounds, the mosaic: "
-             "mcl view RUN.jsonl MISSION.mcl [--port N]"),
+             "mcl view RUN.jsonl MISSION.mcl | --zenoh ENDPOINT MISSION.mcl [--port N]"),
     "replay": ("app.replay", "check that a run log is a legal run of the mission"),
     "lsp": ("app.lsp.server", "the MCL language server for editors, over standard input and "
             "output: mcl lsp (docs/EDITORS.md)"),

@@ -1,13 +1,16 @@
-"""``mcl view``: the mission in a browser, from a finished run log.
+"""``mcl view``: the mission in a browser, from a finished run log or a live run.
 
     mcl view RUN.jsonl MISSION.mcl [--tasks FILE] [--port N]
+    mcl view --zenoh ENDPOINT MISSION.mcl [--name auv] [--port N]
 
-Checks the log as ``mcl replay`` does (its lines and digest chain, then every record against
-the mission's net: the page shows only a legal run), then serves the page on
-``http://127.0.0.1:PORT/`` (a free port unless ``--port``) and prints that address as its
-first line, until Ctrl-C. ``?t=SECONDS`` opens the page at that instant. What the page shows:
-app/view/data.py; the server: app/view/server.py. Exit statuses (docs/EXIT.md): 0 when
-stopped, 2 on invalid input (a log that cannot be read, or is not a run of the mission).
+From a log, it checks the log as ``mcl replay`` does (its lines and digest chain, then every
+record against the mission's net: the page shows only a legal run). Live, it follows the
+mission status the player publishes over Zenoh (app/view/live.py). Either way it serves the
+page on ``http://127.0.0.1:PORT/`` (a free port unless ``--port``) and prints that address as
+its first line, until Ctrl-C. ``?t=SECONDS`` opens the page at that instant. What the page
+shows: app/view/data.py; the server: app/view/server.py. Exit statuses (docs/EXIT.md): 0 when
+stopped, 2 on invalid input (a log that cannot be read or is not a run of the mission, an
+option).
 """
 
 from __future__ import annotations
@@ -26,22 +29,33 @@ from app.guard import guarded
 
 
 def _parser() -> argparse.ArgumentParser:
+    from app import zenoh_options
+
     p = argparse.ArgumentParser(prog="mcl view", description="Show a run of a mission in a "
                                 "browser: its tree with each block's state, the timeline, the "
                                 "track, the proved bounds, the mosaic.")
-    p.add_argument("log", metavar="RUN.jsonl")
-    p.add_argument("mission", metavar="MISSION.mcl")
+    p.add_argument("files", nargs="+", metavar="RUN.jsonl MISSION.mcl",
+                   help="the run log and its mission; with --zenoh, the mission alone")
+    p.add_argument("--zenoh", metavar="ENDPOINT", help="follow a live run on the vehicle at "
+                   "this endpoint (e.g. tcp/127.0.0.1:7447) instead of a log")
+    p.add_argument("--name", default="auv", help="--zenoh: the vehicle's name in the keys "
+                   "(default auv); one view per vehicle of a fleet")
     p.add_argument("--tasks", action="append", default=[], metavar="FILE",
                    help="task library (.tasks), as for the run")
     p.add_argument("--port", type=int, default=0, help="the port on 127.0.0.1 (default: a "
                    "free one)")
     p.add_argument("--debug", action="store_true")
+    zenoh_options.add_arguments(p, "observer")
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     """``mcl view ARGS`` (``argv``: what follows ``view``)."""
-    args = _parser().parse_args(sys.argv[1:] if argv is None else argv)
+    p = _parser()
+    args = p.parse_args(sys.argv[1:] if argv is None else argv)
+    wanted = 1 if args.zenoh else 2
+    if len(args.files) != wanted:
+        p.error("give RUN.jsonl MISSION.mcl, or --zenoh ENDPOINT MISSION.mcl")
     if not 0 <= args.port <= 65535:
         print(f"--port {args.port}: error: not a port (0 to 65535)", file=sys.stderr)
         return Exit.INVALID
@@ -77,31 +91,62 @@ def load(log: str, mission: str, tasks: list[str]) -> tuple[Compiled, list[dict[
 
 
 def _view(args: argparse.Namespace) -> int:
-    from app.view.data import page_data, pictures
-    from app.view.server import ViewServer
+    from app.view.data import mission_data, page_data, pictures
+    from app.view.live import LiveRun, follow
+    from app.view.server import Provider, ViewServer
 
+    stop = threading.Event()
+    found: dict[str, Path] = {}
+    if args.zenoh:
+        problem = _zenoh_problem(args)
+        if problem:
+            print(problem, file=sys.stderr)
+            return Exit.INVALID
+        from app import zenoh_options
+
+        try:
+            security = zenoh_options.from_args(args, "observer")
+        except ValueError as exc:
+            print(f"mcl view: error: {exc}", file=sys.stderr)
+            return Exit.INVALID
+        live = LiveRun(mission_data(compile_file(args.files[0], args.tasks or None)),
+                       args.name, args.zenoh)
+        provider: Provider = live.data
+        threading.Thread(target=follow, args=(live, args.zenoh, security, stop,
+                                              threading.Event()),
+                         name="mcl-view-zenoh", daemon=True).start()
+        what = f"live from {args.zenoh}"
+    else:
+        try:
+            compiled, records = load(args.files[0], args.files[1], args.tasks)
+        except Refused as exc:
+            print(exc, file=sys.stderr)
+            return Exit.INVALID
+        data = page_data(compiled, records, Path(args.files[0]))
+        provider, found = (lambda: data), pictures(Path(args.files[0]))
+        what = f"{len(records)} records"
     try:
-        compiled, records = load(args.log, args.mission, args.tasks)
-    except Refused as exc:
-        print(exc, file=sys.stderr)
-        return Exit.INVALID
-    data = page_data(compiled, records, Path(args.log))
-    try:
-        server = ViewServer(lambda: data, pictures(Path(args.log)), args.port)
+        server = ViewServer(provider, found, args.port)
     except OSError as exc:
         print(f"--port {args.port}: error: cannot serve on it ({exc.strerror})",
               file=sys.stderr)
         return Exit.INVALID
-    stop = threading.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop.set())
     server.start()
-    print(f"mcl view: {server.url} ({data['mission']}, {len(records)} records; Ctrl-C to "
-          "stop)", flush=True)
+    print(f"mcl view: {server.url} ({provider()['mission']}, {what}; Ctrl-C to stop)",
+          flush=True)
     try:
         while not stop.wait(0.5):
             pass
     finally:
+        stop.set()
         server.shutdown()
         server.server_close()
     return Exit.OK
+
+
+def _zenoh_problem(args: argparse.Namespace) -> str | None:
+    from aal.zenoh import option_error
+
+    return option_error(args.zenoh, args.name)

@@ -161,16 +161,24 @@ def pictures(log: Path) -> dict[str, Path]:
     return {name: path for name, path in found.items() if path.is_file()}
 
 
+def mission_data(compiled: Compiled) -> dict[str, Any]:
+    """What the page shows of the mission before any run: its tree, source and bounds."""
+    return {"mission": compiled.name, "file": compiled.source.name,
+            "source": compiled.source.text.splitlines(),
+            "tree": tree(compiled.mission, compiled.name), "bounds": bounds(compiled),
+            "changes": [], "timeline": [], "end": {"t": 0.0, "status": None},
+            "track": [], "track_from": "", "pictures": {}, "live": False}
+
+
 def page_data(compiled: Compiled, records: list[dict[str, Any]], log: Path) -> dict[str, Any]:
     """Everything the page shows of the run log ``records`` (header first) of ``compiled``."""
     states = BlockStates(compiled.net).read(records)
     end = next((r for r in reversed(records) if r.get("kind") == "end"), None)
     last = max((float(r.get("t", 0.0)) for r in records[1:]), default=0.0)
     source, points = track(records, log)
-    return {"mission": compiled.name, "file": compiled.source.name,
-            "source": compiled.source.text.splitlines(), "tree": tree(compiled.mission, compiled.name),
+    return {**mission_data(compiled),
             "changes": [[c.t, block_id(c.block), c.state] for c in states.changes],
-            "timeline": timeline(records), "bounds": bounds(compiled),
+            "timeline": timeline(records),
             "end": {"t": last, "status": str(end.get("status", end["how"])) if end else None},
             "track": points, "track_from": source,
-            "pictures": {name: f"pictures/{name}" for name in pictures(log)}, "live": False}
+            "pictures": {name: f"pictures/{name}" for name in pictures(log)}}
