@@ -4,17 +4,20 @@ tokens, read as ``mcl monitor`` reads them (an observer: it sends nothing).
 
 Each status names the state of every block started so far (``blocks``, mission/blocks.py); a
 change from the status before is a change on the page, at the status's mission time. Its
-last event and last action go into the timeline. A status of a new run (another ``run`` id)
+last event and last action go into the timeline. The vehicle's track is its navigator's
+estimate (``mcl/<v>/telemetry/navigator``), on the vehicle's clock, put on mission time by the
+last status (which gives both). A status of a new run (another ``run`` id)
 starts the page afresh; a status of another mission is set aside and said.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import threading
 from typing import Any
 
-from app.view.data import line_of
+from app.view.data import MAX_TRACK, line_of
 
 FRESH = {"changes": [], "timeline": [], "end": {"t": 0.0, "status": None}}
 
@@ -34,6 +37,8 @@ class LiveRun:
         self.timeline: list[dict[str, Any]] = []
         self.vehicle_alive: bool | None = None
         self.other = ""  # the mission of a status set aside
+        self.positions: list[list[float]] = []  # the navigator's [vehicle t, x, y, z]
+        self.offset = 0.0  # the vehicle's clock minus mission time, as the last status says
 
     def on_status(self, payload: bytes) -> None:
         """A status as the player published it (ill-formed ones are dropped)."""
@@ -50,12 +55,14 @@ class LiveRun:
                 return
             if status.get("run") != self.run:  # a new run: start afresh
                 self.run, self.states, self.changes, self.timeline = status.get("run"), {}, [], []
+                self.positions = []
             elif float(status.get("t", 0)) < self.t:
                 return
             self.take(status)
 
     def take(self, status: dict[str, Any]) -> None:
         self.t = float(status.get("t", 0))
+        self.offset = float(status.get("clock", self.t)) - self.t
         self.status = str(status.get("status"))
         for block, state in (status.get("blocks") or {}).items():
             if self.states.get(block) != state:
@@ -74,6 +81,20 @@ class LiveRun:
                 self.timeline.append(entry)
         self.timeline.sort(key=lambda e: float(e["t"] or 0))
 
+    def on_navigator(self, payload: bytes) -> None:
+        """The navigator's estimate (telemetry): one point of the track."""
+        try:
+            nav = json.loads(payload)
+            point = [float(nav[k]) for k in ("t", "x", "y", "z")]
+        except (ValueError, TypeError, KeyError):
+            return
+        if not all(math.isfinite(v) for v in point):
+            return
+        with self.lock:
+            self.positions.append(point)
+            if len(self.positions) > 2 * MAX_TRACK:  # a long run: keep every other point
+                self.positions = self.positions[::2]
+
     def on_alive(self, key: str, present: bool) -> None:
         if key.endswith("/alive/vehicle"):
             with self.lock:
@@ -90,9 +111,12 @@ class LiveRun:
             ended = self.status if self.status in ("ok", "fail") else None
             if ended is None and self.vehicle_alive is False and self.run is not None:
                 ended = "lost"
+            track = [[t - self.offset, x, y, z] for t, x, y, z in self.positions
+                     if t - self.offset >= 0.0] if self.run is not None else []
             return {**self.base, "changes": list(self.changes),
                     "timeline": list(self.timeline), "end": {"t": self.t, "status": ended},
-                    "live": True, "link": link}
+                    "live": True, "link": link, "track": track,
+                    "track_from": "the navigator's estimate" if track else ""}
 
 
 def follow(live: LiveRun, endpoint: str, security: Any, stop: threading.Event,
@@ -115,6 +139,8 @@ def follow(live: LiveRun, endpoint: str, security: Any, stop: threading.Event,
         return
     try:
         session.declare_subscriber(k["status"], lambda s: live.on_status(payload_text(s)))
+        session.declare_subscriber(k["telemetry"] + "/navigator",
+                                   lambda s: live.on_navigator(payload_text(s)))
         session.liveliness().declare_subscriber(
             k["alive"] + "/**", lambda s: live.on_alive(
                 str(s.key_expr), s.kind == zenoh.SampleKind.PUT), history=True)

@@ -94,6 +94,11 @@ def test_a_new_run_another_mission_old_news_and_a_lost_vehicle(
     again = json.loads(published[1])
     live.on_status(json.dumps({**again, "run": "run-2"}).encode())  # a new run: afresh
     assert live.data()["changes"] == [[again["t"], b, s] for b, s in again["blocks"].items()]
+    assert live.data()["track"] == []
+    live.on_navigator(json.dumps({"t": again["clock"] + 2.0, "x": -1.5, "y": 0.25, "z": 1,
+                                  "yaw": 0}).encode())
+    live.on_navigator(b'{"t": 1, "x": "nan"}')
+    assert live.data()["track"] == [[again["t"] + 2.0, -1.5, 0.25, 1.0]]
     live.on_alive("mcl/auv/alive/vehicle", False)
     assert live.data()["end"]["status"] == "lost" and "LOST" in live.data()["link"]
 
@@ -120,13 +125,16 @@ def test_a_live_run_over_zenoh_in_the_browser(statuses: tuple[list[bytes], Path]
         data: dict[str, Any] = {}
         while time.monotonic() < deadline:  # until the view's subscription is there
             player.put(k["status"], at_55)
+            player.put(k["telemetry"] + "/navigator", json.dumps(
+                {"t": json.loads(at_55)["clock"], "x": -1.5, "y": 0.0, "z": 1.0}))
             with urllib.request.urlopen(url + "data.json", timeout=budget(1)) as reply:
                 data = json.load(reply)
-            if data["changes"]:
+            if data["changes"] and data["track"]:
                 break
             time.sleep(0.2)
         assert states_at(data["changes"], 1e9) == json.loads(at_55)["blocks"]
         assert "vehicle auv @" in data["link"] and "alive" in data["link"]
+        assert data["track"][-1] == [55.0, -1.5, 0.0, 1.0]
         browser = shutil.which("chromium")
         if browser is None:
             pytest.skip("no Chromium on this machine (Debian: apt-get install chromium)")
