@@ -31,10 +31,12 @@ from app.guard import guarded
 def _parser() -> argparse.ArgumentParser:
     from app import zenoh_options
 
-    p = argparse.ArgumentParser(prog="mcl view", description="Show a run of a mission in a "
+    p = argparse.ArgumentParser(prog="mcl view", usage="mcl view RUN.jsonl MISSION.mcl "
+                                "[options]\n       mcl view --zenoh ENDPOINT MISSION.mcl "
+                                "[options]", description="Show a run of a mission in a "
                                 "browser: its tree with each block's state, the timeline, the "
                                 "track, the proved bounds, the mosaic.")
-    p.add_argument("files", nargs="+", metavar="RUN.jsonl MISSION.mcl",
+    p.add_argument("files", nargs="+", metavar="FILE",
                    help="the run log and its mission; with --zenoh, the mission alone")
     p.add_argument("--zenoh", metavar="ENDPOINT", help="follow a live run on the vehicle at "
                    "this endpoint (e.g. tcp/127.0.0.1:7447) instead of a log")

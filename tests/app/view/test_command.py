@@ -61,3 +61,15 @@ def test_bad_input_is_one_line(leak: Path, tmp_path: Path,
     assert code == 2 and said.count("\n") == 1 and "error" in said, said
     code, said = run(capsys, str(leak), str(DAM), "--port", "70000")
     assert (code, said) == (2, "--port 70000: error: not a port (0 to 65535)\n")
+
+
+def test_a_log_and_its_mission_or_a_vehicle_and_its_mission(
+        leak: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    for args in ([str(leak)], ["--zenoh", "tcp/127.0.0.1:7447", str(leak), str(DAM)]):
+        with pytest.raises(SystemExit) as exited:
+            mcl.main(["view", *args])
+        assert exited.value.code == 2
+        assert "error: give RUN.jsonl MISSION.mcl, or --zenoh ENDPOINT MISSION.mcl" in \
+            capsys.readouterr().err
+    code, said = run(capsys, "--zenoh", "nope", str(DAM))
+    assert code == 2 and said.startswith("--zenoh nope: error: ") and said.count("\n") == 1
