@@ -6,7 +6,8 @@ Each status names the state of every block started so far (``blocks``, mission/b
 change from the status before is a change on the page, at the status's mission time. Its
 last event and last action go into the timeline. The vehicle's track is its navigator's
 estimate (``mcl/<v>/telemetry/navigator``), on the vehicle's clock, put on mission time by the
-last status (which gives both). A status of a new run (another ``run`` id)
+last status (which gives both); while the mission runs, the page's "now" moves on with the
+vehicle's clock (``mcl/<v>/telemetry/clock``) between statuses, as ``mcl monitor``'s does. A status of a new run (another ``run`` id)
 starts the page afresh; a status of another mission is set aside and said.
 """
 
@@ -39,6 +40,7 @@ class LiveRun:
         self.other = ""  # the mission of a status set aside
         self.positions: list[list[float]] = []  # the navigator's [vehicle t, x, y, z]
         self.offset = 0.0  # the vehicle's clock minus mission time, as the last status says
+        self.clock: float | None = None  # the vehicle's clock, as its telemetry last said
 
     def on_status(self, payload: bytes) -> None:
         """A status as the player published it (ill-formed ones are dropped)."""
@@ -95,6 +97,23 @@ class LiveRun:
             if len(self.positions) > 2 * MAX_TRACK:  # a long run: keep every other point
                 self.positions = self.positions[::2]
 
+    def on_clock(self, payload: bytes) -> None:
+        """The vehicle's clock (telemetry)."""
+        try:
+            t = float(json.loads(payload)["t"])
+        except (ValueError, TypeError, KeyError):
+            return
+        if math.isfinite(t):
+            with self.lock:
+                self.clock = t
+
+    def now(self) -> float:
+        """Mission time now: the last status's, moved on by the vehicle's clock since while
+        the mission runs."""
+        if self.status != "running" or self.clock is None:
+            return self.t
+        return self.t + max(0.0, self.clock - (self.t + self.offset))
+
     def on_alive(self, key: str, present: bool) -> None:
         if key.endswith("/alive/vehicle"):
             with self.lock:
@@ -114,7 +133,7 @@ class LiveRun:
             track = [[t - self.offset, x, y, z] for t, x, y, z in self.positions
                      if t - self.offset >= 0.0] if self.run is not None else []
             return {**self.base, "changes": list(self.changes),
-                    "timeline": list(self.timeline), "end": {"t": self.t, "status": ended},
+                    "timeline": list(self.timeline), "end": {"t": self.now(), "status": ended},
                     "live": True, "link": link, "track": track,
                     "track_from": "the navigator's estimate" if track else ""}
 
@@ -141,6 +160,7 @@ def follow(live: LiveRun, endpoint: str, security: Any, stop: threading.Event,
         session.declare_subscriber(k["status"], lambda s: live.on_status(payload_text(s)))
         session.declare_subscriber(k["telemetry"] + "/navigator",
                                    lambda s: live.on_navigator(payload_text(s)))
+        session.declare_subscriber(k["clock"], lambda s: live.on_clock(payload_text(s)))
         session.liveliness().declare_subscriber(
             k["alive"] + "/**", lambda s: live.on_alive(
                 str(s.key_expr), s.kind == zenoh.SampleKind.PUT), history=True)

@@ -151,7 +151,7 @@ function summary(t, states) {
 
 function show(t) {
   t = Math.max(0, Number.isFinite(t) ? t : 0);
-  document.getElementById("time").value = t;
+  document.getElementById("time").value = Math.round(t * 10) / 10;
   document.getElementById("slider").value = t;
   const states = statesAt(t);
   document.querySelectorAll(".block").forEach((li) => {
@@ -196,8 +196,9 @@ function render() {
 async function poll() {  // a live run: the server keeps data.json up to date
   try {
     const reply = await fetch("data.json", {cache: "no-store"});
+    const before = data.end.t;  // the user who was at the newest instant keeps following
+    const follow = Number(document.getElementById("time").value) >= before - 0.1;
     data = await reply.json();
-    const follow = Number(document.getElementById("time").value) >= data.end.t - 1.5;
     render();
     show(follow || !data.live ? data.end.t : Number(document.getElementById("time").value));
     document.getElementById("live").textContent = data.live ? `live: ${data.link}` : "";

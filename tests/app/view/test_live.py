@@ -99,6 +99,10 @@ def test_a_new_run_another_mission_old_news_and_a_lost_vehicle(
                                   "yaw": 0}).encode())
     live.on_navigator(b'{"t": 1, "x": "nan"}')
     assert live.data()["track"] == [[again["t"] + 2.0, -1.5, 0.25, 1.0]]
+    assert again["status"] == "running" and live.data()["end"]["t"] == again["t"]
+    live.on_clock(json.dumps({"t": again["clock"] + 7.5, "speed": 10}).encode())
+    live.on_clock(b'{"t": "soon"}')
+    assert live.data()["end"]["t"] == pytest.approx(again["t"] + 7.5)  # the clock moved on
     live.on_alive("mcl/auv/alive/vehicle", False)
     assert live.data()["end"]["status"] == "lost" and "LOST" in live.data()["link"]
 
