@@ -6,6 +6,7 @@
     mcl vehicle --zenoh ENDPOINT | --mavlink URL ...   app/vehicle.py
     mcl monitor --zenoh ENDPOINT ...                   app/monitor.py
     mcl mosaic RUN.jsonl ...                           app/mosaic.py
+    mcl view RUN.jsonl MISSION.mcl                     app/view/command.py (in a browser)
     mcl lsp                                            app/lsp/server.py (for editors)
     mcl fmt MISSION.mcl... [--check | --diff]          app/fmt.py
 
@@ -34,6 +35,9 @@ COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
                 "--zenoh ENDPOINT [--until-end]"),
     "mosaic": ("app.mosaic", "make the photomosaic and coverage map of a run's images: "
                "mcl mosaic RUN.jsonl [--scale MM_PER_PX]"),
+    "view": ("app.view.command", "show a run in a browser: the mission's tree with each "
+             "block's state at any instant, the timeline, the track, the bounds, the mosaic: "
+             "mcl view RUN.jsonl MISSION.mcl | --zenoh ENDPOINT MISSION.mcl [--port N]"),
     "replay": ("app.replay", "check that a run log is a legal run of the mission"),
     "lsp": ("app.lsp.server", "the MCL language server for editors, over standard input and "
             "output: mcl lsp (docs/EDITORS.md)"),

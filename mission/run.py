@@ -60,6 +60,7 @@ from petri.execution.runner import MissionClock, Outcome, run
 from petri.execution.signing import Signer
 from petri.execution.status import MissionStatus
 
+from mission.blocks import BlockStates
 from mission.capabilities import check_capabilities
 from mission.exits import Exit, run_exit
 from mission.stop_handler import StopWatch, as_record, bound
@@ -284,10 +285,13 @@ class _Play:
                 if opened is not None:
                     player.observers.append(opened)
                 player.observers.extend((self.seen, self.catches, self.stop_watch))
-                if chosen.status is not None:  # observers of the mission: mcl monitor
-                    player.observers.append(MissionStatus(
-                        player, self.name, chosen.status.run, chosen.status.publish_status,
-                        vehicle_time=self.clock.vehicle))
+                if chosen.status is not None:  # observers of the mission: mcl monitor, view
+                    blocks = BlockStates(player.net)  # the status carries each block's state
+                    publish = chosen.status.publish_status
+                    player.observers.extend((blocks, MissionStatus(
+                        player, self.name, chosen.status.run,
+                        lambda view: publish({**view, "blocks": blocks.now()}),
+                        vehicle_time=self.clock.vehicle)))
                 player.observers.extend(observers)
                 return run(player, chosen.adapter, self.name, max_time=limit,
                            stop=self.asking(stop, opened), clock=self.clock,

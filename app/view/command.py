@@ -1,0 +1,154 @@
+"""``mcl view``: the mission in a browser, from a finished run log or a live run.
+
+    mcl view RUN.jsonl MISSION.mcl [--tasks FILE] [--port N]
+    mcl view --zenoh ENDPOINT MISSION.mcl [--name auv] [--port N]
+
+From a log, it checks the log as ``mcl replay`` does (its lines and digest chain, then every
+record against the mission's net: the page shows only a legal run). Live, it follows the
+mission status the player publishes over Zenoh (app/view/live.py). Either way it serves the
+page on ``http://127.0.0.1:PORT/`` (a free port unless ``--port``) and prints that address as
+its first line, until Ctrl-C. ``?t=SECONDS`` opens the page at that instant. What the page
+shows: app/view/data.py; the server: app/view/server.py. Exit statuses (docs/EXIT.md): 0 when
+stopped, 2 on invalid input (a log that cannot be read or is not a run of the mission, an
+option).
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+from mcl.api import Compiled, compile_file
+from mission.exits import Exit
+
+from app.guard import guarded
+
+
+def _parser() -> argparse.ArgumentParser:
+    from app import zenoh_options
+
+    p = argparse.ArgumentParser(prog="mcl view", usage="mcl view RUN.jsonl MISSION.mcl "
+                                "[options]\n       mcl view --zenoh ENDPOINT MISSION.mcl "
+                                "[options]", description="Show a run of a mission in a "
+                                "browser: its tree with each block's state, the timeline, the "
+                                "track, the proved bounds, the mosaic.")
+    p.add_argument("files", nargs="+", metavar="FILE",
+                   help="the run log and its mission; with --zenoh, the mission alone")
+    p.add_argument("--zenoh", metavar="ENDPOINT", help="follow a live run on the vehicle at "
+                   "this endpoint (e.g. tcp/127.0.0.1:7447) instead of a log")
+    p.add_argument("--name", default="auv", help="--zenoh: the vehicle's name in the keys "
+                   "(default auv); one view per vehicle of a fleet")
+    p.add_argument("--tasks", action="append", default=[], metavar="FILE",
+                   help="task library (.tasks), as for the run")
+    p.add_argument("--port", type=int, default=0, help="the port on 127.0.0.1 (default: a "
+                   "free one)")
+    p.add_argument("--debug", action="store_true")
+    zenoh_options.add_arguments(p, "observer")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``mcl view ARGS`` (``argv``: what follows ``view``)."""
+    p = _parser()
+    args = p.parse_args(sys.argv[1:] if argv is None else argv)
+    wanted = 1 if args.zenoh else 2
+    if len(args.files) != wanted:
+        p.error("give RUN.jsonl MISSION.mcl, or --zenoh ENDPOINT MISSION.mcl")
+    if not 0 <= args.port <= 65535:
+        print(f"--port {args.port}: error: not a port (0 to 65535)", file=sys.stderr)
+        return Exit.INVALID
+    return guarded("view", args.debug, lambda: _view(args))
+
+
+class Refused(Exception):
+    """The log cannot be shown: its one-line reason."""
+
+
+def load(log: str, mission: str, tasks: list[str]) -> tuple[Compiled, list[dict[str, Any]]]:
+    """The mission compiled with the log's parameters, and the log's records once its chain
+    holds and every record conforms to the mission's net; Refused otherwise."""
+    from diagnostics import Source
+    from mcl import parser
+    from petri.execution.replay import check
+    from petri.execution.runlog import LogError, read_log, verify
+
+    try:
+        records = read_log(log)
+        verify(records, log)
+    except LogError as exc:
+        raise Refused(f"{log}:{exc.line or 1}: error: {exc.reason}") from None
+    params = records[0].get("params") or {}
+    overrides = {name: (parser.parse_value(str(text), "<log header>"),
+                        Source(f"{log} header: {name}", str(text)))
+                 for name, text in params.items()}
+    compiled = compile_file(mission, tasks or None, overrides, require_values=True)
+    result = check(compiled.net, records, {})
+    if not result.ok:
+        raise Refused(f"{log}:{result.line}: error: not a run of {mission}: {result.reason}")
+    return compiled, records
+
+
+def _view(args: argparse.Namespace) -> int:
+    from app.view.data import mission_data, page_data, pictures
+    from app.view.live import LiveRun, follow
+    from app.view.server import Provider, ViewServer
+
+    stop = threading.Event()
+    found: dict[str, Path] = {}
+    if args.zenoh:
+        problem = _zenoh_problem(args)
+        if problem:
+            print(problem, file=sys.stderr)
+            return Exit.INVALID
+        from app import zenoh_options
+
+        try:
+            security = zenoh_options.from_args(args, "observer")
+        except ValueError as exc:
+            print(f"mcl view: error: {exc}", file=sys.stderr)
+            return Exit.INVALID
+        live = LiveRun(mission_data(compile_file(args.files[0], args.tasks or None)),
+                       args.name, args.zenoh)
+        provider: Provider = live.data
+        threading.Thread(target=follow, args=(live, args.zenoh, security, stop,
+                                              threading.Event()),
+                         name="mcl-view-zenoh", daemon=True).start()
+        what = f"live from {args.zenoh}"
+    else:
+        try:
+            compiled, records = load(args.files[0], args.files[1], args.tasks)
+        except Refused as exc:
+            print(exc, file=sys.stderr)
+            return Exit.INVALID
+        data = page_data(compiled, records, Path(args.files[0]))
+        provider, found = (lambda: data), pictures(Path(args.files[0]))
+        what = f"{len(records)} records"
+    try:
+        server = ViewServer(provider, found, args.port)
+    except OSError as exc:
+        print(f"--port {args.port}: error: cannot serve on it ({exc.strerror})",
+              file=sys.stderr)
+        return Exit.INVALID
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: stop.set())
+    server.start()
+    print(f"mcl view: {server.url} ({provider()['mission']}, {what}; Ctrl-C to stop)",
+          flush=True)
+    try:
+        while not stop.wait(0.5):
+            pass
+    finally:
+        stop.set()
+        server.shutdown()
+        server.server_close()
+    return Exit.OK
+
+
+def _zenoh_problem(args: argparse.Namespace) -> str | None:
+    from aal.zenoh import option_error
+
+    return option_error(args.zenoh, args.name)
