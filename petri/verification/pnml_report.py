@@ -12,8 +12,6 @@ report is :mod:`app.reports.pnml`'s.
 
 from __future__ import annotations
 
-import tarfile
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -21,7 +19,8 @@ from typing import Any
 from petri.verification import reachability as rg
 from petri.verification import symbolic
 from petri.net import Net
-from petri.formats.pnml import PnmlError, read_pnml
+from petri.formats.mcc_archive import read_archive
+from petri.formats.pnml import read_pnml
 
 # In "auto", a net that may be 1-safe is first explored explicitly up to EXPLICIT_PROBE
 # markings. If that does not finish, the symbolic search takes over for at most
@@ -167,16 +166,11 @@ def symbolic_report(net: Net, result: Any) -> Report:
     return report
 
 
-def load_net(path: str | Path, workdir: str | Path | None = None) -> Net:
-    """Read a PNML file, or the ``model.pnml`` inside a contest ``.tgz`` archive."""
+def load_net(path: str | Path) -> Net:
+    """Read a PNML file, or the ``model.pnml`` inside a contest ``.tgz`` archive (read in
+    place, never extracted; an archive with an entry that is not a plain file or folder
+    inside its folder is refused: petri/formats/mcc_archive.py)."""
     path = Path(path)
     if path.suffix not in (".tgz", ".gz"):
         return read_pnml(path)
-    if not path.exists():
-        raise PnmlError("no such file", str(path))
-    with tempfile.TemporaryDirectory(dir=workdir) as tmp, tarfile.open(path) as archive:
-        members = [m for m in archive.getmembers() if m.name.endswith("/model.pnml")]
-        if not members:
-            raise PnmlError("the archive holds no */model.pnml", str(path))
-        archive.extract(members[0], tmp, filter="data")
-        return read_pnml(Path(tmp) / members[0].name)
+    return read_archive(path)
