@@ -73,8 +73,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="explicit route: stop after N markings; what the cut exploration "
                         "cannot decide is reported undecided (exit 4) (default 5,000,000)")
     p.add_argument("--max-memory", type=memory_size, default=1 << 30, metavar="SIZE",
-                   help="the memory the explicit route may use, e.g. 512MiB, 4GiB (default "
-                        "1GiB): its need is estimated before it starts; over it, auto takes "
+                   help="the memory the explicit route (and, for a net, the BDDs) may use, "
+                        "e.g. 512MiB, 4GiB (default 1GiB): its need is estimated before it "
+                        "starts and before each array grows; over it, auto takes "
                         "the structural route (a mission) or the symbolic search (a 1-safe "
                         "net), else the search stops there and says undecided (exit 4)")
     p.add_argument("--deadline", metavar="DURATION",

@@ -15,6 +15,7 @@ hash table grows, rather than kept: a word per marking saved). The compiled code
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -150,7 +151,7 @@ def _rehash(table, words, n):
 # the hash table most TLB misses, and numba does not reference-count arrays that a loop
 # reassigns (that more than doubled the time per arc).
 
-_RUNNING, _DONE, _MARKING_LIMIT, _TOKEN_LIMIT, _GROW_BATCH = -1, 0, 1, 2, 3
+_RUNNING, _DONE, _MARKING_LIMIT, _TOKEN_LIMIT, _GROW_BATCH, _MEMORY_LIMIT = -1, 0, 1, 2, 3, 4
 _BATCH = 256  # successors computed before they are looked up (see _expand)
 _SORT_BELOW = 24  # candidate lists shorter than this are insertion-sorted
 
@@ -288,6 +289,23 @@ def _start(table, cells, words, parent, parent_t, m0):
     _store(table, h & np.uint64(table.shape[0] - 1), 0, h, words[0])
 
 
+def _growth_peak(n: int, e: int, capacity: int, arcs: bool, cells: np.ndarray,
+                 parent: np.ndarray, parent_t: np.ndarray, src: np.ndarray,
+                 degree: np.ndarray, table: np.ndarray) -> int:
+    """An upper bound of the bytes the arrays hold while explore_rows grows them for
+    ``capacity`` more markings and arcs: an array that doubles is held with its copy, and
+    the hash table is dropped before its larger successor is made."""
+    per_marking = cells.nbytes + parent.nbytes + parent_t.nbytes + degree.nbytes
+    held = per_marking + 3 * src.nbytes
+    grow = (per_marking if n + capacity > len(cells) else 0) + \
+        (3 * src.nbytes if arcs and e + capacity > len(src) else 0)
+    peak = held + 2 * grow + table.nbytes  # the old arrays and their doubles, at worst
+    if _full(n + capacity, len(table)):
+        size = 1 << (10 * (n + capacity) // 7).bit_length()
+        peak = max(peak, held + grow + size * table.shape[1] * 8)
+    return peak
+
+
 def _grown(a: np.ndarray, n: int) -> np.ndarray:
     """A copy of ``a`` with twice the rows; the first ``n`` rows are kept."""
     b = np.empty((2 * a.shape[0],) + a.shape[1:], dtype=a.dtype)
@@ -295,14 +313,16 @@ def _grown(a: np.ndarray, n: int) -> np.ndarray:
     return b
 
 
-def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
-                 ) -> tuple:  # type: ignore[type-arg]
+def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True,
+                 max_bytes: float = math.inf) -> tuple:  # type: ignore[type-arg]
     """BFS from the padded row ``net.row`` of a :class:`petri.verification.reachability._Compiled` net.
 
     Returns (cells, parent, parent_t, src, dst, tr, status, at, t, degree, fired), where
     ``status`` is 0 (complete), 1 (marking limit: a firing from row ``at`` would make one
-    marking too many) or 2 (token limit: firing ``t`` from row ``at`` would exceed
-    ``max_tokens``). Either way the rows before ``at`` have all their arcs recorded. With
+    marking too many), 2 (token limit: firing ``t`` from row ``at`` would exceed
+    ``max_tokens``) or 4 (memory limit: growing the arrays would take the bytes held, the
+    old copy included, past ``max_bytes``; the search stops before row ``at``). Either way
+    the rows before ``at`` have all their arcs recorded. With
     ``arcs`` the arcs are src, dst, tr (views of larger buffers) and degree, fired are None;
     without, src, dst, tr are empty and degree (successors of each marking) and fired
     (firings of each transition) count them.
@@ -344,6 +364,10 @@ def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
             status = _RUNNING
             continue
         if status != _RUNNING:
+            break
+        if _growth_peak(n, e, capacity, arcs, cells, parent, parent_t, src, degree,
+                        table) > max_bytes:
+            status, at, t = _MEMORY_LIMIT, i, -1
             break
         if n + capacity > len(cells):
             cells = _grown(cells, n)

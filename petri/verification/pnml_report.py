@@ -76,15 +76,17 @@ def analyse_graph(net: Net, method: str = "auto", max_markings: int = 20_000_000
     budget = f"the memory budget of {max_bytes / 2**20:,.0f} MiB"
     try:
         if method == "symbolic":
-            report = symbolic_report(net, symbolic.explore(net, time_limit=symbolic_seconds))
+            report = symbolic_report(net, symbolic.explore(net, time_limit=symbolic_seconds,
+                                                           max_bytes=max_bytes))
         elif room < 1:
             report = unexplored_report(net, f"no room for markings in {budget}")
         elif method == "explicit":
-            space = rg.explore(net, min(max_markings, room), max_tokens, arcs=arcs)
+            space = rg.explore(net, min(max_markings, room), max_tokens, arcs=arcs,
+                               max_bytes=max_bytes)
             report = explicit_report(net, space)
         else:
             report, space = _auto(net, min(max_markings, room), max_tokens, probe,
-                                  symbolic_seconds, arcs)
+                                  symbolic_seconds, arcs, max_bytes)
     except MemoryError:
         space, report = None, unexplored_report(net, f"out of memory (within {budget})")
     if space is not None and not space.complete and room < max_markings and \
@@ -104,21 +106,23 @@ def unexplored_report(net: Net, why: str) -> Report:
 
 
 def _auto(net: Net, max_markings: int, max_tokens: int, probe: int,
-          symbolic_seconds: float, arcs: bool) -> tuple[Report, rg.StateSpace | None]:
+          symbolic_seconds: float, arcs: bool, max_bytes: float
+          ) -> tuple[Report, rg.StateSpace | None]:
     if symbolic.available() and symbolic.is_candidate(net):
         ss = rg.explore(net, max_markings=min(probe, max_markings), max_tokens=max_tokens,
-                        arcs=arcs)
+                        arcs=arcs, max_bytes=max_bytes)
         if ss.complete:
             return explicit_report(net, ss), ss
         if rg.max_tokens(ss) <= 1:
             try:
-                result = symbolic.explore(net, time_limit=symbolic_seconds)
+                result = symbolic.explore(net, time_limit=symbolic_seconds,
+                                          max_bytes=max_bytes)
                 return symbolic_report(net, result), None
             except (symbolic.NotOneSafe, symbolic.SymbolicLimit):
                 pass  # explicit after all
         if probe >= max_markings:
             return explicit_report(net, ss), ss
-    ss = rg.explore(net, max_markings, max_tokens, arcs=arcs)
+    ss = rg.explore(net, max_markings, max_tokens, arcs=arcs, max_bytes=max_bytes)
     return explicit_report(net, ss), ss
 
 
