@@ -13,6 +13,7 @@ import resource
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -111,3 +112,28 @@ def test_the_symbolic_search_stops_at_its_byte_budget() -> None:
                                                      "4 MiB"):
         symbolic.explore(net, max_bytes=4 << 20)  # CUDD's own tables take more
     assert symbolic.explore(net, max_bytes=64 << 20).markings == 2**28
+
+
+@pytest.mark.parametrize("engine", ["numba", "numpy"])
+def test_verify_stops_at_its_byte_budget_and_decides_nothing_that_holds(
+        engine: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the route of a mission's explicit verification (mcl/analysis/verification.py passes
+    # mclc's --max-memory): a cut exploration, said so, nothing claimed to hold
+    if engine == "numba":
+        pytest.importorskip("numba")
+    else:
+        real = rg.explore
+
+        def numpy_explore(net: Net, **options: Any) -> rg.StateSpace:
+            return real(net, **options, engine="numpy")
+
+        monkeypatch.setattr("petri.verification.properties.explore", numpy_explore)
+    from petri.verification.properties import verify
+
+    verdict = verify(cycles(20), max_markings=2_000_000, max_bytes=32 << 20, keep_graph=True)
+    assert verdict.space is not None and verdict.space.engine == engine
+    assert 0 < verdict.markings < 1 << 20
+    method = verdict.results[0].method
+    assert method.endswith("CUT: the memory budget of 32 MiB"), method
+    assert not any(r.holds for r in verdict.results if r.name != "actions-match-behaviours")
+    assert verdict.results[1].undecided and "the memory budget of 32 MiB" in verdict.results[1].message
