@@ -137,3 +137,16 @@ def test_verify_stops_at_its_byte_budget_and_decides_nothing_that_holds(
     assert method.endswith("CUT: the memory budget of 32 MiB"), method
     assert not any(r.holds for r in verdict.results if r.name != "actions-match-behaviours")
     assert verdict.results[1].undecided and "the memory budget of 32 MiB" in verdict.results[1].message
+
+
+def test_the_pnml_report_takes_the_budget_too(tmp_path: Path) -> None:
+    model = tmp_path / "cycles28.pnml"
+    write_pnml(cycles(28), model)
+    proc = subprocess.run([sys.executable, "-m", "app.pnml_report", str(model), "--method",
+                           "explicit", "--max-memory", "64MiB", "--json"], capture_output=True,
+                          text=True, timeout=budget(60), cwd=REPO, env=subprocess_env(),
+                          stdin=subprocess.DEVNULL)
+    assert proc.returncode == 0, proc.stderr  # reported: what it could not decide is null
+    report = json.loads(proc.stdout)
+    assert report["complete"] is False and report["deadlock_reachable"] is None
+    assert report["stop_reason"].endswith("the memory budget of 64 MiB"), report
