@@ -180,8 +180,8 @@ def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
         from petri.verification.explore_bits import explore_bits
 
         small = engine == "auto" and len(net.places) <= SMALL_SAFE_PLACES
-        result = explore_bits(net, min(max_markings, SMALL_SAFE_MARKINGS)
-                              if small else max_markings, arcs=arcs)
+        cap = min(max_markings, SMALL_SAFE_MARKINGS) if small else max_markings
+        result = explore_bits(net, cap, arcs=arcs, max_bytes=max_bytes)
         if result is not None and (result[-1] or engine == "bits" or not small):
             markings, src, dst, tr, parent, parent_t, expanded = result[:7]
             complete = result[-1]
@@ -189,8 +189,10 @@ def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
                             parent_t, engine="bits")  # type: ignore[arg-type]
             if not arcs:
                 ss.degree, ss.fired = result[7], result[8]  # type: ignore[assignment]
-            if not complete:
-                ss.stop_reason = f"more than {max_markings} markings"
+            if not complete:  # before the cap, what stopped it was the memory budget
+                ss.stop_reason = (f"the memory budget of {max_bytes / 2**20:,.0f} MiB"
+                                  if ss.n_markings < cap else
+                                  f"more than {max_markings} markings")
                 ss.expanded = int(expanded)  # type: ignore[call-overload]
             return ss
     compiled = compile_net(net, max_tokens)

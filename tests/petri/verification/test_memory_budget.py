@@ -150,3 +150,22 @@ def test_the_pnml_report_takes_the_budget_too(tmp_path: Path) -> None:
     report = json.loads(proc.stdout)
     assert report["complete"] is False and report["deadlock_reachable"] is None
     assert report["stop_reason"].endswith("the memory budget of 64 MiB"), report
+
+
+@pytest.mark.parametrize("cycles_n, arcs", [(20, True), (2100, False)])  # ints; sets (wide)
+def test_the_bits_engine_stops_at_its_byte_budget(cycles_n: int, arcs: bool) -> None:
+    import tracemalloc
+
+    net = cycles(cycles_n)
+    tracemalloc.start()
+    try:
+        ss = rg.explore(net, 2_000_000, engine="bits", arcs=arcs, max_bytes=8 << 20)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert ss.engine == "bits" and not ss.complete
+    assert ss.stop_reason == "the memory budget of 8 MiB"
+    assert 0 < ss.n_markings < 2_000_000 and peak <= 8 << 20, peak
+    if arcs:  # the markings before the stop have all their successors
+        assert ss.n_arcs >= cycles_n * ss.expanded
+        assert (ss.src[: cycles_n * ss.expanded] < ss.expanded).all()
