@@ -5,6 +5,7 @@ is exit 2 and one line, never a traceback nor a value that means nothing (``--se
 from __future__ import annotations
 
 import argparse
+import re
 from typing import NoReturn
 
 from mission.exits import Exit
@@ -37,3 +38,19 @@ def seed(text: str) -> int:
                                          f"to {MAX_SEED}")
     return value
 
+
+MEMORY_UNITS = {"": 1, "b": 1, "k": 1 << 10, "kib": 1 << 10, "kb": 1000, "m": 1 << 20,
+                "mib": 1 << 20, "mb": 1000**2, "g": 1 << 30, "gib": 1 << 30, "gb": 1000**3,
+                "t": 1 << 40, "tib": 1 << 40, "tb": 1000**4}
+
+
+def memory_size(text: str) -> int:
+    """``--max-memory``: a memory size, a number and a unit (B, KiB, MiB, GiB, TiB; KB.. in
+    powers of 1000; K, M, G, T as binary), e.g. 512MiB, 1.5GiB; at least 1 MiB."""
+    match = re.fullmatch(r"\s*([0-9][0-9_]*(?:\.[0-9]+)?)\s*([A-Za-z]*)\s*", text)
+    if match is None or match[2].lower() not in MEMORY_UNITS:
+        raise argparse.ArgumentTypeError(f"not a memory size: {text!r} (e.g. 512MiB, 4GiB)")
+    value = float(match[1].replace("_", "")) * MEMORY_UNITS[match[2].lower()]
+    if not (1 << 20) <= value < 2**63:
+        raise argparse.ArgumentTypeError(f"must be at least 1MiB, got {text!r}")
+    return int(value)

@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import re
 import sys
 import traceback
 from collections.abc import Callable
@@ -21,6 +20,7 @@ from typing import Any
 from diagnostics import Diagnostic, MclError, Span
 from mcl.api import Compiled, compile_file, parse_params
 
+from app.arguments import memory_size
 from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
 from app.version import VersionAction
 from app import arguments
@@ -75,9 +75,10 @@ def _parser(prog: str = "mclc") -> argparse.ArgumentParser:
     p.add_argument("--max-markings", type=_positive, default=5_000_000, metavar="N",
                    help="explicit route: stop after N markings; what the cut exploration "
                         "cannot decide is reported undecided (exit 4) (default 5,000,000)")
-    p.add_argument("--max-memory", type=_memory, default=1 << 30, metavar="SIZE",
-                   help="the memory the explicit route may use, e.g. 512MiB, 4GiB (default "
-                        "1GiB): its need is estimated before it starts; over it, auto takes "
+    p.add_argument("--max-memory", type=memory_size, default=1 << 30, metavar="SIZE",
+                   help="the memory the explicit route (and, for a net, the BDDs) may use, "
+                        "e.g. 512MiB, 4GiB (default 1GiB): its need is estimated before it "
+                        "starts and before each array grows; over it, auto takes "
                         "the structural route (a mission) or the symbolic search (a 1-safe "
                         "net), else the search stops there and says undecided (exit 4)")
     p.add_argument("--deadline", metavar="DURATION",
@@ -100,23 +101,6 @@ def _positive(text: str) -> int:
     if not 1 <= value < 2**31:
         raise argparse.ArgumentTypeError(f"must lie between 1 and 2**31 - 1, got {value}")
     return value
-
-
-MEMORY_UNITS = {"": 1, "b": 1, "k": 1 << 10, "kib": 1 << 10, "kb": 1000, "m": 1 << 20,
-                "mib": 1 << 20, "mb": 1000**2, "g": 1 << 30, "gib": 1 << 30, "gb": 1000**3,
-                "t": 1 << 40, "tib": 1 << 40, "tb": 1000**4}
-
-
-def _memory(text: str) -> int:
-    """A memory size: a number and a unit (B, KiB, MiB, GiB, TiB; KB.. in powers of 1000;
-    K, M, G, T as binary), e.g. 512MiB, 1.5GiB; at least 1 MiB."""
-    match = re.fullmatch(r"\s*([0-9][0-9_]*(?:\.[0-9]+)?)\s*([A-Za-z]*)\s*", text)
-    if match is None or match[2].lower() not in MEMORY_UNITS:
-        raise argparse.ArgumentTypeError(f"not a memory size: {text!r} (e.g. 512MiB, 4GiB)")
-    value = float(match[1].replace("_", "")) * MEMORY_UNITS[match[2].lower()]
-    if not (1 << 20) <= value < 2**63:
-        raise argparse.ArgumentTypeError(f"must be at least 1MiB, got {text!r}")
-    return int(value)
 
 
 class OutputError(MclError):

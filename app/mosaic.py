@@ -1,10 +1,13 @@
 """``mcl mosaic RUN``: (re)make a run's mosaic and coverage map from its images.
 
     mcl mosaic RUN.jsonl|RUN.images [--scale MM_PER_PX] [--out PREFIX] [--no-truth]
+                                    [--max-memory SIZE]
 
 Writes PREFIX.mosaic.png, PREFIX.coverage.png and PREFIX.mosaic.json (default PREFIX: the run
 log without its suffix) and prints where, with the figures. Its exit statuses (made, invalid
-input): docs/EXIT.md.
+input): docs/EXIT.md. The folder's files are checked before one image is decoded, and the
+images and canvas are sized against ``--max-memory`` (default 2 GiB) before they are
+allocated (mosaic/image_files.py): a folder that fails is refused in one line, exit 2.
 """
 
 from __future__ import annotations
@@ -14,8 +17,11 @@ import math
 import sys
 from pathlib import Path
 
+from app.arguments import memory_size
+from app.guard import guarded
 from mission.exits import Exit
 from mosaic.blending import MM_PER_PX
+from mosaic.image_files import MAX_BYTES
 from mosaic.images import SurveyError, find
 from app import arguments
 
@@ -41,12 +47,22 @@ def main(argv: list[str] | None = None) -> int:
                    "PREFIX.coverage.png, PREFIX.mosaic.json (default: beside the run log)")
     p.add_argument("--no-truth", action="store_true",
                    help="do not measure against the simulation's ground truth")
+    p.add_argument("--max-memory", type=memory_size, default=MAX_BYTES, metavar="SIZE",
+                   help="the memory the mosaic may use, e.g. 512MiB, 4GiB (default 2GiB): the "
+                        "images and the canvas are sized before they are allocated; a run "
+                        "that needs more is refused (a coarser --scale needs less)")
+    p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     args = p.parse_args(argv)
+    return guarded("mosaic", args.debug, lambda: _mosaic(args))
+
+
+def _mosaic(args: argparse.Namespace) -> int:
     from mosaic.build import build, summary_lines, write
 
     try:
         folder = find(args.run)
-        result = build(folder, args.scale, measure=not args.no_truth)
+        result = build(folder, args.scale, measure=not args.no_truth,
+                       max_bytes=args.max_memory)
     except SurveyError as exc:
         msg = str(exc)
         head, _, rest = msg.partition(": ")

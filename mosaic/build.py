@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from mosaic import accuracy, alignment, blending, registration
+from mosaic import accuracy, alignment, blending, image_files, registration
 from mosaic.images import Survey, read
 from mosaic.projection import FloatArray
 from mosaic.stages import (
@@ -54,12 +54,15 @@ class Result:
 
 
 def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool = True,
-          compare_without_prior: bool = True, per_image: int = 3) -> Result:
+          compare_without_prior: bool = True, per_image: int = 3,
+          max_bytes: int = image_files.MAX_BYTES) -> Result:
     """The mosaic of a run's images folder (or of the run log beside it), stage by stage: the
     images prepared, the pairs registered, the poses aligned, the mosaic blended, the figures
-    (and, for a simulated run, the figures against the ground truth)."""
+    (and, for a simulated run, the figures against the ground truth). The images and the
+    canvas are sized against ``max_bytes`` before they are allocated (mosaic/image_files.py):
+    a survey that needs more is refused (SurveyError, ValueError) with the reason."""
     clock = Clock()
-    survey = read(path)
+    survey = read(path, max_bytes)
     if not survey.frames:
         raise ValueError(f"{survey.folder}: the run took no images")
     prior = np.array([f.prior for f in survey.frames], dtype=float)
@@ -74,7 +77,9 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
         clock.lap("registration")
         aligned = align(matcher, prior, prior_std, pairs, images.usable, per_image)
         clock.lap("alignment")
-    blended = blend(survey, images, aligned.poses, size, mm_per_px)
+    held = image_files.survey_bytes(len(survey.frames), survey.k.width, survey.k.height)
+    blended = blend(survey, images, aligned.poses, size, mm_per_px,
+                    min(60_000_000, image_files.canvas_pixels(max_bytes, held)))
     clock.lap("blending")
     figures = _figures(survey, images, pairs, aligned, blended, mm_per_px, clock)
     result = Result(survey, blended.mosaic, blended.coverage, blended.canvas, aligned.poses,

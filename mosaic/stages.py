@@ -212,10 +212,11 @@ class Blended:
 
 
 def blend(survey: Survey, images: Prepared, poses: FloatArray, size: tuple[float, float],
-          mm_per_px: float) -> Blended:
+          mm_per_px: float, max_pixels: int = 60_000_000) -> Blended:
     """Every usable image projected at its pose and merged (its memory freed as the mosaic
     grows); the coverage map with the planned area (widened by an image's ``size``) drawn;
-    ValueError when no image is usable, saying why they were set aside."""
+    ValueError when no image is usable, saying why they were set aside, or when the canvas
+    would have more than ``max_pixels`` pixels."""
     k, usable = survey.k, images.usable
     fw, fh = size
     boxes = [blending.footprint(poses[i], k) for i in range(len(usable)) if usable[i]]
@@ -225,7 +226,7 @@ def blend(survey: Survey, images: Prepared, poses: FloatArray, size: tuple[float
         boxes.append((py.min() - fw / 2, py.max() + fw / 2, pz.min() - fh / 2, pz.max() + fh / 2))
     if not boxes:
         raise ValueError(_nothing_usable(survey, images.skipped))
-    canvas = blending.canvas_for(boxes, mm_per_px)
+    canvas = blending.canvas_for(boxes, mm_per_px, max_pixels=max_pixels)
     blender = blending.Blender(canvas, k)
     for i, img in enumerate(images.images):
         if not usable[i]:

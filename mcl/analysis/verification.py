@@ -97,7 +97,7 @@ def _verify(compiled: Compiled, method: str, max_markings: int, max_bytes: int,
             return _too_big(net, max_bytes)
         try:
             return verify(net, max_markings=limit, keep_graph=keep_graph,
-                          termination=terminates)
+                          termination=terminates, max_bytes=max_bytes)
         except MemoryError:  # the estimate fell short: say so, never crash
             return _too_big(net, max_bytes, "ran out of memory")
     estimate = structural.mission_estimate(compiled.checked)
@@ -108,13 +108,13 @@ def _verify(compiled: Compiled, method: str, max_markings: int, max_bytes: int,
         return structural.analyse(compiled.checked, net, note=why)
     try:
         explicit = verify(net, max_markings=limit, keep_graph=keep_graph,
-                          termination=terminates)
+                          termination=terminates, max_bytes=max_bytes)
     except MemoryError:  # the estimate fell short: the structural route instead
         return structural.analyse(compiled.checked, net, note=f"auto: the explicit route "
                                   f"ran out of memory ({budget}): structural instead")
     if not any(r.undecided for r in explicit.results if r.severity == "error"):
         return explicit
-    cut = explicit.markings >= limit
+    cut = explicit.markings >= limit or any("CUT: " in r.method for r in explicit.results)
     why = (f"auto: the explicit route stopped at {explicit.markings:,} markings "
            f"(limit {limit:,}, {budget})" if cut else "auto: undecided by the explicit route")
     return merge(explicit, structural.analyse(compiled.checked, net, note=why), cut)

@@ -31,7 +31,7 @@ from petri.formats.pnml_writer import PNML_NS, PTNET_TYPE, TOOL, TOOL_VERSION, w
 from petri.net import Net
 
 __all__ = ["MAX_COUNT", "PNML_NS", "PTNET_TYPE", "PnmlError", "TOOL", "TOOL_VERSION",
-           "read_pnml", "write_pnml"]
+           "read_pnml", "read_pnml_stream", "write_pnml"]
 
 # Net types that are P/T nets (pm4py writes "pnmlcoremodel" for its nets).
 _PT_TYPES = ("ptnet", "pnmlcoremodel")
@@ -247,6 +247,12 @@ def read_pnml(path: str | os.PathLike[str]) -> Net:
     except PermissionError:
         raise PnmlError("permission denied", path) from None
     return _build(doc, Path(path).stem)
+
+
+def read_pnml_stream(stream: IO[bytes], name: str) -> Net:
+    """Read the P/T net in the PNML bytes of ``stream`` (an archive's member, say), named
+    ``name`` in errors; raise :class:`PnmlError` if it cannot be read."""
+    return _build(_Reader(name).feed(stream), Path(name).stem)
 
 
 def _build(doc: _Document, fallback_name: str) -> Net:

@@ -17,6 +17,8 @@ the representation, so breadth-first numbers and shortest paths are the same eit
 
 from __future__ import annotations
 
+import math
+import sys
 from array import array
 from typing import Any
 
@@ -26,16 +28,24 @@ from petri.net import Net, triggers
 
 
 WIDE = 4096  # above this many places, markings are sets; below, integers (bit per place)
+# What the search holds per marking besides the marking itself (bytes): its entry in the
+# index (a dict) and in the list of markings, its parent and parent transition, and, without
+# arcs, its number of successors; per arc, three int32 in arrays that grow by doubling.
+HELD_PER_MARKING = 80
+ARC_BYTES = 24
 
 
-def explore_bits(net: Net, max_markings: int, dense: bool = True, arcs: bool = True
-                 ) -> tuple[object, ...] | None:
+def explore_bits(net: Net, max_markings: int, dense: bool = True, arcs: bool = True,
+                 max_bytes: float = math.inf) -> tuple[object, ...] | None:
     """(markings (n, places) uint8, src, dst, transition, parent, parent_transition, expanded,
     complete) or None when the net is not 1-safe with unit weights; markings before
     ``expanded`` have all their arcs (all of them when complete). With ``dense=False`` the
     markings are the list of marked-place frozensets instead (no n x places array). With
     ``arcs=False`` src, dst and transition are empty and two more items follow: each
-    marking's number of successors and each transition's number of firings."""
+    marking's number of successors and each transition's number of firings. The search
+    stops, incomplete with fewer than ``max_markings`` markings, where the next marking would
+    take what it holds (:data:`HELD_PER_MARKING` and the marking itself, the dense array made
+    at the end included) past ``max_bytes``."""
     if any(w != 1 for tr in net.transitions for _, w in tr.inputs + tr.outputs) or \
             any(n > 1 for n in net.initial.values()) or \
             any(not tr.inputs for tr in net.transitions):  # a source fills a place twice
@@ -48,7 +58,7 @@ def explore_bits(net: Net, max_markings: int, dense: bool = True, arcs: bool = T
         readers[p] += (t,)  # examined when its most selective input is marked
     wide = len(net.places) > WIDE
     search = _search_sets if wide else _search_ints
-    found = search(net, readers, rank, max_markings, arcs)
+    found = search(net, readers, rank, max_markings, arcs, max_bytes)
     if found is None:
         return None
     order, src, dst, trs, parent, parent_t, head, complete, degree, fired = found
@@ -84,9 +94,13 @@ Found = tuple[list[Any], "array[int]", "array[int]", "array[int]", "array[int]",
 
 
 def _search_ints(net: Net, readers: list[tuple[int, ...]], rank: list[int], max_markings: int,
-                 arcs: bool) -> Found | None:
+                 arcs: bool, max_bytes: float = math.inf) -> Found | None:
     """The search with each marking an integer, one bit per place (narrow nets: an operation
     on a few machine words is cheaper than on a set)."""
+    width = len(net.places)
+    per = (HELD_PER_MARKING + 28 + 4 * -(-width // 30) + 2 * width + -(-width // 8)
+           + (0 if arcs else 8))  # the int, the dense row and its packed bytes at the end
+    per_arc = ARC_BYTES if arcs else 0
     pre = [sum(1 << p for p, _ in tr.inputs) for tr in net.transitions]
     post = [sum(1 << p for p, _ in tr.outputs) for tr in net.transitions]
     m0 = sum(1 << p for p, n in net.initial.items() if n)
@@ -119,7 +133,8 @@ def _search_ints(net: Net, readers: list[tuple[int, ...]], rank: list[int], max_
             n = rest | post[t]
             j = index.get(n)
             if j is None:
-                if len(order) >= max_markings:
+                if len(order) >= max_markings or \
+                        len(order) * per + len(src) * per_arc > max_bytes:
                     complete = False
                     break
                 j = index[n] = len(order)
@@ -140,11 +155,15 @@ def _search_ints(net: Net, readers: list[tuple[int, ...]], rank: list[int], max_
 
 
 def _search_sets(net: Net, readers: list[tuple[int, ...]], rank: list[int], max_markings: int,
-                 arcs: bool) -> Found | None:
+                 arcs: bool, max_bytes: float = math.inf) -> Found | None:
     """The search with each marking the frozenset of its marked places (wide nets: the cost
     of an operation is the number of tokens, not of places)."""
+    per = HELD_PER_MARKING + len(net.places) + (0 if arcs else 8)  # and the set: 24 B a token
+    per_arc = ARC_BYTES if arcs else 0
     pre = [frozenset(p for p, _ in tr.inputs) for tr in net.transitions]
     post = [frozenset(p for p, _ in tr.outputs) for tr in net.transitions]
+    held = float(sum(map(sys.getsizeof, pre)) + sum(map(sys.getsizeof, post))
+                 + HELD_PER_MARKING * len(net.transitions))  # the net as the search holds it
     m0 = frozenset(p for p, n in net.initial.items() if n)
     index = {m0: 0}
     order = [m0]
@@ -170,7 +189,8 @@ def _search_sets(net: Net, readers: list[tuple[int, ...]], rank: list[int], max_
             n = rest | post[t]
             j = index.get(n)
             if j is None:
-                if len(order) >= max_markings:
+                held += per + sys.getsizeof(n) + 24 * len(n)
+                if len(order) >= max_markings or held + len(src) * per_arc > max_bytes:
                     complete = False
                     break
                 j = index[n] = len(order)

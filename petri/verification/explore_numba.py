@@ -15,6 +15,7 @@ hash table grows, rather than kept: a word per marking saved). The compiled code
 
 from __future__ import annotations
 
+import math
 import os
 from typing import Any
 
@@ -32,7 +33,7 @@ from petri.verification.numba_rows import (candidates, hash_row, lookup, new_tab
 # the hash table most TLB misses, and numba does not reference-count arrays that a loop
 # reassigns (that more than doubled the time per arc).
 
-_RUNNING, _DONE, _MARKING_LIMIT, _TOKEN_LIMIT, _GROW_BATCH = -1, 0, 1, 2, 3
+_RUNNING, _DONE, _MARKING_LIMIT, _TOKEN_LIMIT, _GROW_BATCH, _MEMORY_LIMIT = -1, 0, 1, 2, 3, 4
 _BATCH = 256  # successors computed before they are looked up (see _expand)
 
 
@@ -209,14 +210,33 @@ def _grown(a: np.ndarray, n: int, rows: int) -> np.ndarray:
     return b
 
 
-def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
-                 ) -> tuple:  # type: ignore[type-arg]
+def growth_peak(n: int, e: int, slack: int, arcs: bool, cells: np.ndarray,
+                parent: np.ndarray, parent_t: np.ndarray, src: np.ndarray,
+                degree: np.ndarray, table: np.ndarray) -> int:
+    """An upper bound of the bytes the arrays hold while explore_rows grows them for
+    ``slack`` more markings and arcs: an array that grows is held with its copy, and the
+    hash table is dropped before its larger successor is made."""
+    per_marking = cells.nbytes + parent.nbytes + parent_t.nbytes + degree.nbytes
+    held = per_marking + 3 * src.nbytes
+    grow = (per_marking if n + slack > len(cells) else 0) + \
+        (3 * src.nbytes if arcs and e + slack > len(src) else 0)
+    peak = held + 2 * grow + table.nbytes  # the old arrays and their copies, at worst
+    if too_full(n + slack, len(table)):
+        size = 1 << (10 * (n + slack) // 7).bit_length()
+        peak = max(peak, held + grow + size * table.shape[1] * 8)
+    return peak
+
+
+def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True,
+                 max_bytes: float = math.inf) -> tuple:  # type: ignore[type-arg]
     """BFS from the padded row ``net.row`` of a :class:`petri.verification.reachability._Compiled` net.
 
     Returns (cells, parent, parent_t, src, dst, tr, status, at, t, degree, fired), where
     ``status`` is 0 (complete), 1 (marking limit: a firing from row ``at`` would make one
-    marking too many) or 2 (token limit: firing ``t`` from row ``at`` would exceed
-    ``max_tokens``). Either way the rows before ``at`` have all their arcs recorded. With
+    marking too many), 2 (token limit: firing ``t`` from row ``at`` would exceed
+    ``max_tokens``) or 4 (memory limit: growing the arrays would take the bytes held, the
+    old copy included, past ``max_bytes``; the search stops before row ``at``). Either way
+    the rows before ``at`` have all their arcs recorded. With
     ``arcs`` the arcs are src, dst, tr (views of larger buffers) and degree, fired are None;
     without, src, dst, tr are empty and degree (successors of each marking) and fired
     (firings of each transition) count them.
@@ -231,7 +251,9 @@ def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
     threads = parallel_threads()
     buffers = _Buffers(threads, len(m0), m0.dtype, n_trans) if threads else None
     slack = capacity if buffers is None else max(capacity, threads * buffers.size)
-    cap = max(1024 + 2 * slack, min(max_markings + slack, RESERVE_BYTES // m0.nbytes))
+    reserve = RESERVE_BYTES if math.isinf(max_bytes) else min(RESERVE_BYTES,
+                                                                 int(max_bytes) // 4)
+    cap = max(1024 + 2 * slack, min(max_markings + slack, reserve // m0.nbytes))
     cells = np.empty((cap, len(m0)), dtype=m0.dtype)
     parent = np.empty(cap, dtype=np.int32)
     parent_t = np.empty(cap, dtype=np.int32)
@@ -252,6 +274,10 @@ def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
     wide = WIDE if buffers is not None else 2**62
     i, n, e, status, at, t = 0, 1, 0, _RUNNING, -1, -1
     while status == _RUNNING:  # each round expands a marking or more, or grows an array
+        if growth_peak(n, e, slack, arcs, cells, parent, parent_t, src, degree,
+                       table) > max_bytes:
+            status, at, t = _MEMORY_LIMIT, i, -1
+            break
         if n + slack > len(cells):
             cells = _grown(cells, n, n + slack)
             parent, parent_t = _grown(parent, n, n + slack), _grown(parent_t, n, n + slack)

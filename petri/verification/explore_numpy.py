@@ -11,12 +11,17 @@ discovery, so the numbering, arcs and parents are exactly those of the numba ker
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-_DONE, _MARKING_LIMIT, _TOKEN_LIMIT = 0, 1, 2
+_DONE, _MARKING_LIMIT, _TOKEN_LIMIT, _MEMORY_LIMIT = 0, 1, 2, 4
+# The work arrays of a slice, per candidate firing, beyond its rows (as int64, as stored, the
+# new ones' keys and their sorted copy: 11 row widths): its row number, transition, number,
+# order and rank, 8 bytes each, and numpy's temporaries.
+WORK_BYTES = 8 * 8
 
 Array = npt.NDArray[Any]
 
@@ -28,30 +33,44 @@ def _keys(cells: Array) -> Array:
 
 
 # The successors of a BFS level are computed a slice of the level at a time, each slice's
-# candidate firings holding at most CHUNK_BYTES as int64 rows: a wide level of a large net
+# candidate firings holding at most CHUNK_BYTES (an eighth of the memory budget if less) as
+# int64 rows: a wide level of a large net
 # (Philosophers-PT-000050: 14.7 million candidates of 256 places, 28 GiB at once) never
 # allocates more than that. Slices are taken in row order, so the numbering is unchanged.
 CHUNK_BYTES = 64 << 20
 
 
-def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
-                 ) -> tuple[Any, ...]:
-    """Same contract as :func:`petri.verification.explore_numba.explore_rows`."""
+def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True,
+                 max_bytes: float = math.inf) -> tuple[Any, ...]:
+    """Same contract as :func:`petri.verification.explore_numba.explore_rows`: before each
+    slice of a level, the bytes it would hold after it (what is kept, the slice's work
+    arrays, the copy the sorted keys make as they grow) are estimated, and past
+    ``max_bytes`` the search stops there with status 4 (memory limit)."""
     m0 = net.row
+    width = m0.shape[0] * m0.itemsize
     levels = [m0[None, :].copy()]
     parents: list[Array] = [np.array([-1], dtype=np.int64)]
     parent_ts: list[Array] = [np.array([-1], dtype=np.int32)]
-    found: list[tuple[Array, Array, Array]] = []
+    found: list[tuple[Array, Array, Array]] = []  # arcs, int32 (arcs=True)
+    degrees: list[Array] = []  # successors of each expanded row, in order (arcs=False)
+    fired = np.zeros(len(net.in_ptr) - 1, dtype=np.int64)
     known = _keys(levels[0])  # sorted keys of all numbered markings ...
     known_id = np.zeros(1, dtype=np.int64)  # ... and their numbers
     n, lo = 1, 0
+    held = width + 28  # bytes kept: rows, parents, keys, numbers, and arcs or degrees
+    chunk = int(min(CHUNK_BYTES, max(1 << 16, max_bytes / 8)))  # a slice's candidates
     status, at, stop_t = _DONE, -1, -1
     for _ in range(max_markings):  # one BFS level per round; each level adds a marking
         level = levels[-1]
         if not len(level):
             break
         new_levels: list[Array] = []
-        for first_row, last_row in _slices(level, net):
+        for first_row, last_row, candidates in _slices(level, net, chunk):
+            need = held + known.nbytes + known_id.nbytes + 8 * width * (
+                last_row - first_row) + candidates * (11 * width + WORK_BYTES + 12 * arcs)
+            if need > max_bytes:  # the rows before this slice have all their arcs
+                status, at = _MEMORY_LIMIT, lo + first_row
+                break
             frontier = level[first_row:last_row].astype(np.int64)
             src, trans, succ = _successors(frontier, net, lo + first_row)
             cut = len(src)
@@ -76,7 +95,14 @@ def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
                 src, trans, dst, rows, new = src[:keep], trans[:keep], dst[:keep], \
                     rows[:keep], new[:keep]
                 order = order[: max_markings - n]
-            found.append((src, dst, trans))
+            if arcs:
+                found.append((src.astype(np.int32), dst.astype(np.int32),
+                              trans.astype(np.int32)))
+            else:  # the same counts the numba kernel keeps instead of the arcs
+                base = lo + first_row
+                degrees.append(np.bincount(src - base, minlength=last_row - first_row)
+                               .astype(np.int32))
+                fired += np.bincount(trans, minlength=len(fired))
             new_rows = np.flatnonzero(new)[first[order]]
             new_levels.append(rows[new_rows])
             parents.append(src[new_rows])
@@ -84,6 +110,8 @@ def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
             known, known_id = _merge(known, known_id, keys[new_rows],
                                      n + np.arange(len(order)))
             n += len(order)
+            held += len(order) * (2 * width + 20) + len(src) * (12 if arcs else 0) + \
+                (0 if arcs else 4 * (last_row - first_row))
             if status != _DONE:
                 break
         lo += len(level)
@@ -91,32 +119,39 @@ def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
         if status != _DONE:
             break
     cells = np.concatenate(levels)
-    src = np.concatenate([a[0] for a in found]).astype(np.int32) if found else _none()
-    dst = np.concatenate([a[1] for a in found]).astype(np.int32) if found else _none()
-    trans = np.concatenate([a[2] for a in found]).astype(np.int32) if found else _none()
-    degree = fired = None
-    if not arcs:  # the same counts the numba kernel keeps instead of the arcs
-        degree = np.bincount(src, minlength=len(cells)).astype(np.int32)
-        fired = np.bincount(trans, minlength=len(net.in_ptr) - 1).astype(np.int64)
-        src, dst, trans = _none(), _none(), _none()
+    src = np.concatenate([a[0] for a in found]) if found else _none()
+    dst = np.concatenate([a[1] for a in found]) if found else _none()
+    trans = np.concatenate([a[2] for a in found]) if found else _none()
+    degree = fired_out = None
+    if not arcs:
+        degree = np.zeros(len(cells), dtype=np.int32)
+        counted = np.concatenate(degrees)[: len(cells)] if degrees else degree[:0]
+        degree[: len(counted)] = counted
+        fired_out = fired
     return (cells, np.concatenate(parents), np.concatenate(parent_ts), src, dst, trans,
-            status, at, stop_t, degree, fired)
+            status, at, stop_t, degree, fired_out)
 
 
-def _slices(level: Array, net: Any) -> list[tuple[int, int]]:
-    """Row ranges of ``level`` whose candidate firings fit :data:`CHUNK_BYTES` each (a
-    single row may exceed it: it is a slice of its own)."""
-    rows, places = np.nonzero(level)
-    per_row = np.bincount(rows, weights=net.rd_ptr[places + 1] - net.rd_ptr[places],
-                          minlength=len(level)) + len(net.sources)
-    cap = max(1, CHUNK_BYTES // (8 * level.shape[1]))
+def _slices(level: Array, net: Any, chunk: int = CHUNK_BYTES) -> list[tuple[int, int, int]]:
+    """Row ranges of ``level`` whose candidate firings fit ``chunk`` bytes each (a single
+    row may exceed it: it is a slice of its own), with their numbers of candidates."""
+    per_row = np.empty(len(level), dtype=np.int64)
+    block = max(1, chunk // (32 * max(1, level.shape[1])))  # its nonzero cells' work
+    for a in range(0, len(level), block):  # a block at a time: a level's marked cells
+        rows, places = np.nonzero(level[a:a + block])  # may take many times its size
+        per_row[a:a + block] = np.bincount(
+            rows, weights=net.rd_ptr[places + 1] - net.rd_ptr[places],
+            minlength=min(block, len(level) - a))
+    per_row += len(net.sources)
+    cap = max(1, chunk // (8 * level.shape[1]))
     ends = np.cumsum(per_row)
     cuts = [0]
     while cuts[-1] < len(level):
         base = ends[cuts[-1] - 1] if cuts[-1] else 0
         nxt = int(np.searchsorted(ends, base + cap, side="right"))
         cuts.append(min(len(level), max(nxt, cuts[-1] + 1)))
-    return list(zip(cuts[:-1], cuts[1:]))
+    return [(a, b, int(ends[b - 1] - (ends[a - 1] if a else 0)))
+            for a, b in zip(cuts[:-1], cuts[1:])]
 
 
 def _none() -> Array:

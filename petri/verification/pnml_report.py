@@ -12,18 +12,15 @@ report is :mod:`app.reports.pnml`'s.
 
 from __future__ import annotations
 
-import shutil
 import stat
-import tarfile
-import tempfile
 import time
-import zlib
 from pathlib import Path
 from typing import Any
 
 from petri.verification import reachability as rg
 from petri.verification import symbolic
 from petri.net import Net
+from petri.formats.mcc_archive import read_archive
 from petri.formats.pnml import PnmlError, read_pnml
 
 # In "auto", a net that may be 1-safe is first explored explicitly up to EXPLICIT_PROBE
@@ -80,15 +77,17 @@ def analyse_graph(net: Net, method: str = "auto", max_markings: int = 20_000_000
     budget = f"the memory budget of {max_bytes / 2**20:,.0f} MiB"
     try:
         if method == "symbolic":
-            report = symbolic_report(net, symbolic.explore(net, time_limit=symbolic_seconds))
+            report = symbolic_report(net, symbolic.explore(net, time_limit=symbolic_seconds,
+                                                           max_bytes=max_bytes))
         elif room < 1:
             report = unexplored_report(net, f"no room for markings in {budget}")
         elif method == "explicit":
-            space = rg.explore(net, min(max_markings, room), max_tokens, arcs=arcs)
+            space = rg.explore(net, min(max_markings, room), max_tokens, arcs=arcs,
+                               max_bytes=max_bytes)
             report = explicit_report(net, space)
         else:
             report, space = _auto(net, min(max_markings, room), max_tokens, probe,
-                                  symbolic_seconds, arcs)
+                                  symbolic_seconds, arcs, max_bytes)
     except MemoryError:
         space, report = None, unexplored_report(net, f"out of memory (within {budget})")
     if space is not None and not space.complete and room < max_markings and \
@@ -108,21 +107,23 @@ def unexplored_report(net: Net, why: str) -> Report:
 
 
 def _auto(net: Net, max_markings: int, max_tokens: int, probe: int,
-          symbolic_seconds: float, arcs: bool) -> tuple[Report, rg.StateSpace | None]:
+          symbolic_seconds: float, arcs: bool, max_bytes: float
+          ) -> tuple[Report, rg.StateSpace | None]:
     if symbolic.available() and symbolic.is_candidate(net):
         ss = rg.explore(net, max_markings=min(probe, max_markings), max_tokens=max_tokens,
-                        arcs=arcs)
+                        arcs=arcs, max_bytes=max_bytes)
         if ss.complete:
             return explicit_report(net, ss), ss
         if rg.max_tokens(ss) <= 1:
             try:
-                result = symbolic.explore(net, time_limit=symbolic_seconds)
+                result = symbolic.explore(net, time_limit=symbolic_seconds,
+                                          max_bytes=max_bytes)
                 return symbolic_report(net, result), None
             except (symbolic.NotOneSafe, symbolic.SymbolicLimit):
                 pass  # explicit after all
         if probe >= max_markings:
             return explicit_report(net, ss), ss
-    ss = rg.explore(net, max_markings, max_tokens, arcs=arcs)
+    ss = rg.explore(net, max_markings, max_tokens, arcs=arcs, max_bytes=max_bytes)
     return explicit_report(net, ss), ss
 
 
@@ -170,17 +171,10 @@ def symbolic_report(net: Net, result: Any) -> Report:
     return report
 
 
-MAX_ARCHIVE_ENTRIES = 10_000  # a contest archive holds a dozen files; past this, not one
-MAX_MODEL_BYTES = 1 << 30  # the contest's largest model.pnml is a few hundred MB
-
-
-def load_net(path: str | Path, workdir: str | Path | None = None) -> Net:
-    """Read a PNML file, or the ``model.pnml`` inside a contest ``.tgz`` archive.
-
-    Only a regular file is opened (a FIFO or a device would be read for ever); in an archive
-    only a regular ``model.pnml`` entry is read, copied by its content and never by its name
-    (an entry's ``../`` or absolute path, a link or a device are refused, not followed).
-    Every problem is a :class:`PnmlError` naming the file."""
+def load_net(path: str | Path) -> Net:
+    """Read a PNML file, or the ``model.pnml`` inside a contest ``.tgz`` archive (read in
+    place, never extracted; an archive with an entry that is not a plain file or folder
+    inside its folder is refused: petri/formats/mcc_archive.py)."""
     path = Path(path)
     try:
         mode = path.stat().st_mode
@@ -188,45 +182,9 @@ def load_net(path: str | Path, workdir: str | Path | None = None) -> Net:
         raise PnmlError("no such file", str(path)) from None
     except OSError as exc:
         raise PnmlError(f"cannot be read: {exc.strerror}", str(path)) from None
-    if not stat.S_ISREG(mode):
+    if not stat.S_ISREG(mode):  # a FIFO or a device would be read for ever: never opened
         kind = "a directory" if stat.S_ISDIR(mode) else "not a regular file (a FIFO or a device)"
         raise PnmlError(f"is {kind}: not a PNML file nor a contest archive", str(path))
     if path.suffix not in (".tgz", ".gz"):
         return read_pnml(path)
-    with tempfile.TemporaryDirectory(dir=workdir) as tmp:
-        model = Path(tmp) / "model.pnml"
-        try:
-            with tarfile.open(path, "r:*") as archive:
-                _copy_model(archive, model, str(path))
-        except (tarfile.TarError, OSError, EOFError, zlib.error) as exc:
-            reason = ("not a tar file, compressed or not" if isinstance(exc, tarfile.ReadError)
-                      else str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
-            raise PnmlError(f"not a contest archive (a .tgz holding */model.pnml): {reason}",
-                            str(path)) from None
-        try:
-            return read_pnml(model)
-        except PnmlError as exc:  # named as the archive's entry, not the temporary copy
-            raise PnmlError(exc.message, f"{path}:model.pnml", exc.line, exc.col) from None
-
-
-def _copy_model(archive: tarfile.TarFile, target: Path, where: str) -> None:
-    """Copy the archive's first ``*/model.pnml`` entry to ``target``: PnmlError if it has
-    none, if that entry is not a regular file, or if it is larger than MAX_MODEL_BYTES."""
-    for count, member in enumerate(archive):
-        if count >= MAX_ARCHIVE_ENTRIES:
-            raise PnmlError(f"more than {MAX_ARCHIVE_ENTRIES:,} entries and no "
-                            "*/model.pnml among them: not a contest archive", where)
-        if member.name != "model.pnml" and not member.name.endswith("/model.pnml"):
-            continue
-        if not member.isreg():
-            raise PnmlError(f"its entry {member.name[:200]!r} is a link or a device, not "
-                            "a file: refused", where)
-        if member.size > MAX_MODEL_BYTES:
-            raise PnmlError(f"its {member.name[:200]!r} is larger than "
-                            f"{MAX_MODEL_BYTES:,} bytes", where)
-        source = archive.extractfile(member)
-        assert source is not None  # a regular entry always has content
-        with source, open(target, "wb") as out:
-            shutil.copyfileobj(source, out)
-        return
-    raise PnmlError("the archive holds no */model.pnml", where)
+    return read_archive(path)

@@ -42,6 +42,7 @@ This module explores and decides the safety properties; its parts: the graph sea
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -68,15 +69,16 @@ TIMED_MAX_CLASSES = 50_000
 
 
 def verify(net: Net, max_markings: int = 5_000_000, keep_graph: bool = False,
-           termination: Termination = terminates) -> Verdict:
+           termination: Termination = terminates, max_bytes: float = math.inf) -> Verdict:
     """Explore the net's reachability graph (with the external stop) and decide every
     property of docs/SEMANTICS.md on it; a property a cut exploration cannot decide is
     undecided. With ``keep_graph`` the verdict keeps the graph (``Verdict.space``); without,
     it is not kept (a run that verifies first does not hold it in memory while it runs).
     ``termination`` decides ``terminates`` on the graph (default: the graph rule; a mission
-    passes its own, from its proved worst case)."""
+    passes its own, from its proved worst case). The search stops, cut, where the next
+    arrays would take it past ``max_bytes`` (petri/verification/reachability.py)."""
     start = time.perf_counter()
-    ss = explore(net, max_markings=max_markings)
+    ss = explore(net, max_markings=max_markings, max_bytes=max_bytes)
     check = _Exploration(net, ss, Semantics(net))
     g, how, cut = check.graph, check.how, check.cut
     verdict = Verdict(net, ss.n_markings, len(ss.src), 0.0, space=ss if keep_graph else None)

@@ -18,6 +18,7 @@ unboundedness: an earlier marking that the later one strictly covers.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -40,7 +41,7 @@ SMALL_SAFE_PLACES = 4096
 SMALL_SAFE_MARKINGS = 100_000
 
 # Why the search stopped (the kernels return these codes).
-COMPLETE, MARKING_LIMIT, TOKEN_LIMIT = 0, 1, 2
+COMPLETE, MARKING_LIMIT, TOKEN_LIMIT, MEMORY_LIMIT = 0, 1, 2, 4
 
 
 @dataclass
@@ -161,11 +162,14 @@ def default_engine() -> str:
 
 
 def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
-            engine: str = "auto", arcs: bool = True) -> StateSpace:
+            engine: str = "auto", arcs: bool = True, max_bytes: float = math.inf
+            ) -> StateSpace:
     """Breadth-first reachability graph of ``net`` from its initial marking.
 
-    Stops (``complete=False``) after ``max_markings`` markings, or when a firing would put
-    more than ``max_tokens`` tokens in a place. ``engine`` is "auto", "numba" or "numpy".
+    Stops (``complete=False``) after ``max_markings`` markings, when a firing would put
+    more than ``max_tokens`` tokens in a place, or when the next arrays the numba or numpy
+    engine would allocate (estimated before they are) would take what it holds past
+    ``max_bytes`` ("the memory budget of N MiB"). ``engine`` is "auto", "numba" or "numpy".
     ``arcs=False`` keeps only the number of successors of each marking and of firings of
     each transition (``degree``, ``fired``), not the arcs: enough for deadlocks, dead
     transitions and bounds, in a third of the memory.
@@ -176,8 +180,8 @@ def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
         from petri.verification.explore_bits import explore_bits
 
         small = engine == "auto" and len(net.places) <= SMALL_SAFE_PLACES
-        result = explore_bits(net, min(max_markings, SMALL_SAFE_MARKINGS)
-                              if small else max_markings, arcs=arcs)
+        cap = min(max_markings, SMALL_SAFE_MARKINGS) if small else max_markings
+        result = explore_bits(net, cap, arcs=arcs, max_bytes=max_bytes)
         if result is not None and (result[-1] or engine == "bits" or not small):
             markings, src, dst, tr, parent, parent_t, expanded = result[:7]
             complete = result[-1]
@@ -185,20 +189,24 @@ def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
                             parent_t, engine="bits")  # type: ignore[arg-type]
             if not arcs:
                 ss.degree, ss.fired = result[7], result[8]  # type: ignore[assignment]
-            if not complete:
-                ss.stop_reason = f"more than {max_markings} markings"
+            if not complete:  # before the cap, what stopped it was the memory budget
+                ss.stop_reason = (f"the memory budget of {max_bytes / 2**20:,.0f} MiB"
+                                  if ss.n_markings < cap else
+                                  f"more than {max_markings} markings")
                 ss.expanded = int(expanded)  # type: ignore[call-overload]
             return ss
     compiled = compile_net(net, max_tokens)
     name, kernel = _kernel(engine)
     cells, parent, parent_t, src, dst, tr, status, stop_at, stop_t, degree, fired = kernel(  # type: ignore[operator]
-        compiled, max_markings, max_tokens, arcs)
+        compiled, max_markings, max_tokens, arcs, max_bytes)
     markings = cells[:, : len(net.places)]
     ss = StateSpace(markings, src, dst, tr, status == COMPLETE, None, parent, parent_t,
                     engine=name, degree=degree, fired=fired)
     if status == TOKEN_LIMIT:
         ss.stop_reason = f"more than {max_tokens} tokens in a place"
         ss.unbounded_place = _unbounded_witness(net, ss, int(stop_at), int(stop_t))
+    elif status == MEMORY_LIMIT:
+        ss.stop_reason = f"the memory budget of {max_bytes / 2**20:,.0f} MiB"
     elif status == MARKING_LIMIT:
         ss.stop_reason = f"more than {max_markings} markings"
         ss.unbounded_place = _unbounded_witness(net, ss, ss.n_markings - 1, -1)

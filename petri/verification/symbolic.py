@@ -216,13 +216,26 @@ def _counter(bdd: Bdd, backend: str, n_vars: int) -> Any:
     return count
 
 
-def explore(net: Net, max_rounds: int = 100_000,
-            time_limit: float | None = None) -> SymbolicResult:
+def explore(net: Net, max_rounds: int = 100_000, time_limit: float | None = None,
+            max_bytes: float | None = None) -> SymbolicResult:
     """Reachable markings of a 1-safe net as a BDD; raise :class:`NotOneSafe` otherwise.
 
     Raises :class:`SymbolicLimit` when ``time_limit`` seconds pass before the fixpoint (it is
-    checked between two transition images, so one image may overrun it).
+    checked between two transition images, so one image may overrun it), or when CUDD would
+    take more than ``max_bytes`` (its ``max_memory``: it refuses the node it cannot make, and
+    dd says so with a ValueError about a NULL node).
     """
+    try:
+        return _explore(net, max_rounds, time_limit, max_bytes)
+    except ValueError as exc:
+        if max_bytes is None or "NULL" not in str(exc):
+            raise
+        raise SymbolicLimit(f"the BDDs outgrew the memory budget of "
+                            f"{max_bytes / 2**20:,.0f} MiB") from None
+
+
+def _explore(net: Net, max_rounds: int, time_limit: float | None,
+             max_bytes: float | None) -> SymbolicResult:
     start = time.perf_counter()
     deadline = None if time_limit is None else start + time_limit
     if not is_candidate(net):
@@ -233,6 +246,8 @@ def explore(net: Net, max_rounds: int = 100_000,
     bdd.declare(*(names[p] for p in order))
     if backend == "cudd":
         bdd.configure(reordering=False)  # the static order is good; sifting costs time
+        if max_bytes is not None:
+            bdd.configure(max_memory=int(max_bytes))
     initial = bdd.cube({names[p]: net.initial.get(p, 0) > 0 for p in range(len(net.places))})
     fire = [_Firing(bdd, names, t) for t in net.transitions]
 
