@@ -25,6 +25,8 @@ from tests.support import MISSIONS, cli
 from vehicle_adapters.inprocess import InProcess
 from vehicle.scripted import ScriptedVehicle, load_script
 
+pytestmark = pytest.mark.slow  # the dam mission run twice through the real mcl (its module fixture): not in make test-quick
+
 DAM = str(MISSIONS / "dam_inspection.mcl")
 VEHICLES = MISSIONS / "vehicles"
 DAM_OK = f"script:{VEHICLES / 'dam.toml'}"

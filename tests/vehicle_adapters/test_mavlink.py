@@ -40,6 +40,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: I001  (MAVL
 
 from tests.support import BIN, MISSIONS, REPO, budget, end, free_udp_port, started, stop
 
+pytestmark = pytest.mark.slow  # real vehicle processes over MAVLink: not in make test-quick
+
 DAM = str(MISSIONS / "dam_inspection.mcl")
 SPEED = 100.0  # the dam mission lasts ~1200 s of simulated time: ~15 s of wall time here
 SEED = 1
