@@ -25,8 +25,11 @@ $(RUNTIME): pyproject.toml
 	$(PIP_INSTALL) -e .
 	touch $(RUNTIME)
 
+# MAVProxy without its dependencies (pyproject.toml's test extra lists those a router needs):
+# its own pull VTK, a second OpenCV and Shapely, 700 MB that the headless router never uses.
 $(EXTRAS): $(RUNTIME)
 	$(PIP_INSTALL) -e '.[test,dev,large]'
+	$(PIP_INSTALL) --no-deps 'MAVProxy>=1.8'
 	touch $(EXTRAS)
 
 demo: $(RUNTIME)

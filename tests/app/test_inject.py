@@ -45,7 +45,8 @@ def test_a_misspelt_kind_of_vehicle_gets_the_closest(tmp_path: Path) -> None:
 # The dam mission on 3 m of the wall (make demo's short survey): the warning is the same as for
 # the whole wall, and the run that must end OK after it takes 3 s instead of 20.
 SHORT_SURVEY = ["--param", "path=[(0, 1), (0, 4), (0.75, 4), (0.75, 1), (1.5, 1), (1.5, 4), "
-                "(2.25, 4), (2.25, 1), (3, 1), (3, 4)]", "--param", "recoveryPos=(-5, 1.5, 0.5, 0 deg)"]
+                "(2.25, 4), (2.25, 1), (3, 1), (3, 4)]",
+                "--param", "recoveryPos=(-5, 1.5, 0.5, 0 deg)"]
 
 
 @pytest.mark.slow
