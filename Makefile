@@ -1,5 +1,6 @@
 # make demo   — set up (first time) and show the dam mission compiled and verified
-# make test   — set up (first time) and run the test suite
+# make test   — set up (first time) and run the test suite, on every core (what CI runs)
+# make test-quick — the edit-run loop: the suite without the tests marked slow, on every core
 # make check  — lint (ruff), type-check (mypy), and the missions in mcl fmt's layout
 # make bench  — benchmarks (figures, not pass/fail)
 # make vsix   — the VS Code extension (editors/vscode/): its grammars tested, then out/mcl.vsix
@@ -17,7 +18,7 @@ PIP_INSTALL := $(BIN)/python -m pip --disable-pip-version-check --quiet install
 RUNTIME := $(VENV)/.installed-runtime
 EXTRAS  := $(VENV)/.installed-extras
 
-.PHONY: demo test check bench clean install install-all vscode-test vsix
+.PHONY: demo test test-quick check bench clean install install-all vscode-test vsix
 
 install: $(RUNTIME)
 install-all: $(EXTRAS)
@@ -28,8 +29,11 @@ $(RUNTIME): pyproject.toml
 	$(BIN)/python -m compileall -q $(PACKAGES)
 	touch $(RUNTIME)
 
+# MAVProxy without its dependencies (pyproject.toml's test extra lists those a router needs):
+# its own pull VTK, a second OpenCV and Shapely, 700 MB that the headless router never uses.
 $(EXTRAS): $(RUNTIME)
 	$(PIP_INSTALL) -e '.[test,dev]'
+	$(PIP_INSTALL) --no-deps 'MAVProxy>=1.8'
 	touch $(EXTRAS)
 
 demo: $(RUNTIME)
@@ -54,8 +58,16 @@ demo: $(RUNTIME)
 	@echo
 	@echo "Written to out/: run logs (*.jsonl), trajectory plots (*.svg), the mosaic and coverage map (*.mosaic.png, *.coverage.png), the nets (*.dot, *.pnml)"
 
+# pytest-xdist: one worker per core, a test module at a time (--dist loadfile), so a module
+# fixture (a dam run, a vehicle) is made once, not by each worker. (--dist loadgroup would
+# send the rest test by test, but pytest 9.2 ignores the group xdist 3.8 tags a test with.)
+XDIST := -n logical --dist loadfile
+
 test: $(EXTRAS)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q $(XDIST)
+
+test-quick: $(EXTRAS)
+	$(BIN)/python -m pytest -q $(XDIST) -m 'not slow'
 
 check: $(EXTRAS)
 	$(BIN)/ruff check $(PACKAGES) tests bench

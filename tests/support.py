@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import queue
+import random
 import socket
 import subprocess
 import sys
@@ -77,18 +78,63 @@ GENERIC_TASKS = (REPO / "mcl" / "tasks" / "generic.tasks").read_text("utf-8")
 
 # -- subprocesses on loopback ---------------------------------------------------------------------
 
+# Under pytest-xdist (``make test`` runs two workers) several processes pick ports at once. A
+# port the kernel hands out for bind(0) lies in its ephemeral range, where another worker's
+# outgoing connection (a Zenoh client, say) may take it before our subprocess binds it. So each
+# worker draws from its own slice of PORTS, below the ephemeral range (32768-60999 on Linux), in
+# turn from a random start (two test runs side by side rarely meet), skipping a port it cannot
+# bind: no two workers of a run ever get the same port, and no worker gets one twice until it
+# has gone round its slice.
+PORTS = range(20000, 32768)
+
+
+def port_slice(worker: str | None = None, workers: str | None = None) -> range:
+    """This worker's share of :data:`PORTS`: worker ``gwN`` of ``workers`` (by default from
+    $PYTEST_XDIST_WORKER and $PYTEST_XDIST_WORKER_COUNT; without xdist, all of it)."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "gw0") if worker is None else worker
+    workers = os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1") if workers is None else workers
+    try:
+        index, count = int(worker.removeprefix("gw")), max(1, int(workers))
+    except ValueError:
+        index, count = 0, 1
+    size = len(PORTS) // count
+    start = PORTS.start + (index % count) * size
+    return range(start, start + size)
+
+
+class PortDrawer:
+    """Ports of one slice in turn, from a random start, each checked free by binding it."""
+
+    def __init__(self, ports: range) -> None:
+        self.ports = ports
+        # a generator of its own, seeded from the system: Hypothesis seeds the global one
+        self.at = random.Random().randrange(len(ports))
+
+    def draw(self, kind: socket.SocketKind) -> int:
+        """The next port of the slice that a ``kind`` socket can bind on 127.0.0.1 now."""
+        for _ in range(len(self.ports)):
+            port = self.ports[self.at]
+            self.at = (self.at + 1) % len(self.ports)
+            with socket.socket(socket.AF_INET, kind) as s:
+                try:
+                    s.bind(("127.0.0.1", port))
+                except OSError:
+                    continue
+            return port
+        raise RuntimeError(f"no free port in {self.ports.start}-{self.ports.stop - 1}")
+
+
+DRAWER = PortDrawer(port_slice())
+
+
 def free_tcp_port() -> int:
-    """A TCP port on 127.0.0.1 that was free a moment ago."""
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+    """A TCP port on 127.0.0.1, free a moment ago, that no other worker of this run gets."""
+    return DRAWER.draw(socket.SOCK_STREAM)
 
 
 def free_udp_port() -> int:
-    """A UDP port on 127.0.0.1 that was free a moment ago."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+    """A UDP port on 127.0.0.1, free a moment ago, that no other worker of this run gets."""
+    return DRAWER.draw(socket.SOCK_DGRAM)
 
 
 def free_endpoint(scheme: str = "tcp") -> str:

@@ -15,6 +15,8 @@ import tomllib
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
+import pytest
+
 from tests.import_graph import (
     Edge,
     cycles,
@@ -86,23 +88,27 @@ def test_the_layers_name_every_first_party_package() -> None:
         assert (REPO / package / "__init__.py").is_file(), package
 
 
+@pytest.mark.slow
 def test_no_import_cycle_between_modules() -> None:
     found = cycles(import_edges(REPO, LAYERS))
     assert not found, "import cycles (module -> module (file:line)):\n" + _cycle_text(found)
 
 
+@pytest.mark.slow
 def test_every_import_between_packages_points_down() -> None:
     bad = upward(import_edges(REPO, LAYERS), LAYERS)
     assert not bad, (f"imports that point up or sideways the order {' > '.join(LAYERS)}:\n"
                      + _lines(bad))
 
 
+@pytest.mark.slow
 def test_only_the_application_layer_parses_command_lines() -> None:
     libraries = [p for p in LAYERS if p not in COMMAND_LINE_PACKAGES]
     bad = external_imports(REPO, libraries, "argparse")
     assert not bad, "argparse outside app/ (a library takes arguments, not argv):\n" + _lines(bad)
 
 
+@pytest.mark.slow
 def test_the_reader_sees_the_known_edges_of_the_tree() -> None:
     """A reader that resolves nothing would pass the tests above: it must see real edges."""
     edges = import_edges(REPO, LAYERS)
@@ -113,6 +119,7 @@ def test_the_reader_sees_the_known_edges_of_the_tree() -> None:
     assert all(e.line > 0 and (REPO / e.file).is_file() for e in edges)
 
 
+@pytest.mark.slow
 def test_no_private_name_is_used_across_modules() -> None:
     """A private name is one its module may change without telling anyone: any other module
     that needs it asks for a public name (a test file may still use the module it mirrors)."""
@@ -120,6 +127,7 @@ def test_no_private_name_is_used_across_modules() -> None:
     assert not bad, "private names used outside their module:\n" + "\n".join(f"  {u}" for u in bad)
 
 
+@pytest.mark.slow
 def test_no_import_inside_a_function_hides_a_cycle() -> None:
     """An import inside a function is for start-up speed only: moved to module level, with the
     package __init__ modules Python runs before it, it must close no cycle."""
@@ -128,6 +136,7 @@ def test_no_import_inside_a_function_hides_a_cycle() -> None:
                        "they would not load):\n" + _cycle_text(found))
 
 
+@pytest.mark.slow
 def test_the_readers_see_the_known_function_imports_and_inheritance_of_the_tree() -> None:
     """Readers that resolve nothing would pass the two tests above: they must see real ones."""
     deferred = {(e.source, e.target) for e in deferred_imports(REPO, LAYERS)}

@@ -41,6 +41,8 @@ from aal.zenoh_security import Security  # noqa: E402
 from tests.support import (  # noqa: E402
     BIN, REPO, TOLERANT_LEASE_MS, budget, cli, free_endpoint, started)
 
+pytestmark = pytest.mark.slow  # real vehicle processes over secured Zenoh: not in make test-quick
+
 SPEED = 50.0
 K = keys("auv")
 SHORT = "MISSION {\n    StartLogs(enable);\n    Surface();\n    StartLogs(disable)\n}\n"

@@ -526,6 +526,7 @@ def test_fuzz_mclc_on_pnml(fuzz_folder: Path, data: st.DataObject) -> None:
         event(f"exit {code}")
 
 
+@pytest.mark.slow
 @FUZZ
 @given(data=st.data())
 def test_fuzz_mcl_run(fuzz_folder: Path, data: st.DataObject) -> None:

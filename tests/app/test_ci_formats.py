@@ -6,6 +6,7 @@ import json
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import pytest
 import yaml
 
 from tests.support import MISSIONS, REPO, cli, write
@@ -14,6 +15,7 @@ CONFLICT = "MISSION {\n  PARALLEL { GoTo((0, 0, 5, 0)) } AND { Surface() }\n}\n"
 BROKEN = "MISSION {\n  Surface();\n}\n"
 
 
+@pytest.mark.slow
 def test_worst_status_wins(tmp_path: Path) -> None:
     good = str(MISSIONS / "dam_inspection.mcl")
     bad = str(write(tmp_path, CONFLICT, "conflict.mcl"))

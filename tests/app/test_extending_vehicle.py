@@ -78,6 +78,7 @@ def test_the_page_gives_one_file_and_one_line() -> None:
         assert needed in text, needed
 
 
+@pytest.mark.slow
 def test_the_command_on_the_page_runs_the_mission_to_its_end(installed: Path) -> None:
     command = next(line for line in section().splitlines() if line.startswith("mcl run "))
     args = command.split()[2:]
@@ -106,6 +107,7 @@ def test_the_command_on_the_page_runs_the_mission_to_its_end(installed: Path) ->
     assert replay.returncode == 0 and "conforms" in replay.stdout, replay.stdout + replay.stderr
 
 
+@pytest.mark.slow
 def test_the_registry_refuses_for_the_new_kind(installed: Path) -> None:
     log = str(installed / "refused.jsonl")
     helped = mcl(installed, "run", "--help")

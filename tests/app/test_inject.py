@@ -14,6 +14,7 @@ from tests.support import MISSIONS, cli
 DAM = str(MISSIONS / "dam_inspection.mcl")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fault, says", [
     ("leak@-4", "-4 s is before the mission starts"),
     ("leak@1e400", "is not a finite number of seconds"),
@@ -31,6 +32,7 @@ def test_a_bad_fault_is_one_line_and_exit_2(fault: str, says: str, tmp_path: Pat
     assert not (tmp_path / "r.jsonl").exists()  # refused before anything ran
 
 
+@pytest.mark.slow
 def test_a_misspelt_kind_of_vehicle_gets_the_closest(tmp_path: Path) -> None:
     result = cli("mcl", "run", DAM, "--vehicle", "zenho", "--log", str(tmp_path / "r.jsonl"))
     assert result.returncode == Exit.INVALID
@@ -40,9 +42,17 @@ def test_a_misspelt_kind_of_vehicle_gets_the_closest(tmp_path: Path) -> None:
     assert "did you mean" not in far.stderr and "unknown kind of vehicle" in far.stderr
 
 
+# The dam mission on 3 m of the wall (make demo's short survey): the warning is the same as for
+# the whole wall, and the run that must end OK after it takes 3 s instead of 20.
+SHORT_SURVEY = ["--param", "path=[(0, 1), (0, 4), (0.75, 4), (0.75, 1), (1.5, 1), (1.5, 4), "
+                "(2.25, 4), (2.25, 1), (3, 1), (3, 4)]",
+                "--param", "recoveryPos=(-5, 1.5, 0.5, 0 deg)"]
+
+
+@pytest.mark.slow
 def test_a_fault_after_the_proved_end_is_warned_of(tmp_path: Path) -> None:
-    late = cli("mcl", "run", DAM, "--inject", "leak@99999", "--no-images", "--quiet",
-               "--log", str(tmp_path / "late.jsonl"))
+    late = cli("mcl", "run", DAM, *SHORT_SURVEY, "--inject", "leak@99999", "--no-images",
+               "--quiet", "--log", str(tmp_path / "late.jsonl"))
     assert late.returncode == Exit.OK, late.stderr
     assert "warning: --inject leak@99999: the mission ends by" in late.stderr
     assert "so the leak never happens" in late.stderr

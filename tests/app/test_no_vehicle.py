@@ -17,6 +17,7 @@ from tests.support import budget, cli, free_endpoint, free_udp_port, write
 MISSION = "MISSION m { GoTo((-1, 0, 1, 0)) }\n"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind, wait", [("mavlink", 10), ("zenoh", 5)])
 def test_no_vehicle_is_refused_before_the_start(tmp_path: Path, kind: str, wait: int) -> None:
     where = (f"mavlink:udpin:127.0.0.1:{free_udp_port()}" if kind == "mavlink"

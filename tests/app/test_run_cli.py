@@ -25,6 +25,9 @@ from tests.support import MISSIONS, cli
 from vehicle_adapters.inprocess import InProcess
 from vehicle.scripted import ScriptedVehicle, load_script
 
+# the dam mission run twice through the real mcl (its module fixture): not in make test-quick
+pytestmark = pytest.mark.slow
+
 DAM = str(MISSIONS / "dam_inspection.mcl")
 VEHICLES = MISSIONS / "vehicles"
 DAM_OK = f"script:{VEHICLES / 'dam.toml'}"

@@ -187,6 +187,7 @@ def test_a_stuck_mission_is_aborted_with_its_latch_off(tmp_path: Path) -> None:
     assert last["switched_off"] == ["Alarms"]
 
 
+@pytest.mark.slow
 def test_a_closed_stdout_does_not_stop_the_mission(tmp_path: Path) -> None:
     # the simulated vehicle at wall-clock speed, a line every second: `| head -1` closes the
     # pipe after the first, and the run goes on to its limit, safely
@@ -301,6 +302,7 @@ def test_the_pipeline_mission_runs_on_a_vehicle_that_declares_it(tmp_path: Path)
     assert "KeepAltitude" in last["switched_off"], last
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("toml, where, what", [
     ('# a\n[behaviours.GoTo]\non_enable = { after = 5.0, event = "reachd" }\n', ":3:36:",
      "behaviour GoTo has no event 'reachd'"),
@@ -408,6 +410,7 @@ def vehicle_saw_all_off(proc: subprocess.Popen[str], out_path: Path) -> None:
     assert on == "none", text
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_a_signal_over_zenoh_switches_the_vehicle_off(tmp_path: Path, sig: int) -> None:
     pytest.importorskip("zenoh")
@@ -424,6 +427,7 @@ def test_a_signal_over_zenoh_switches_the_vehicle_off(tmp_path: Path, sig: int) 
         vehicle_saw_all_off(vproc, vout)
 
 
+@pytest.mark.slow
 def test_max_time_over_zenoh_switches_the_vehicle_off(tmp_path: Path) -> None:
     pytest.importorskip("zenoh")
     endpoint = free_endpoint()
@@ -454,6 +458,7 @@ def test_max_time_over_zenoh_switches_the_vehicle_off(tmp_path: Path) -> None:
         vehicle_saw_all_off(vproc, vout)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP])
 def test_a_signal_over_mavlink_switches_the_vehicle_off(tmp_path: Path, sig: int) -> None:
     port = free_udp_port()

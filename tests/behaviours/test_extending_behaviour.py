@@ -121,6 +121,7 @@ def extension(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]
         del sys.modules[name]
 
 
+@pytest.mark.slow
 def test_the_doc_s_new_behaviour_is_three_files_and_runs(extension: Path) -> None:
     blocks = section("Add a behaviour")
     assert sorted({where for _, where, _ in blocks} - {"hold.mcl"}) == [

@@ -98,6 +98,7 @@ def test_the_algorithm_as_printed_in_MCL_md_compiles_with_warnings(tmp_path: Pat
         assert f"warning: parameter '{name}' has no value" in proc.stderr
 
 
+@pytest.mark.slow
 def test_mclc_on_every_mission_at_once() -> None:
     proc = cli("mclc", *map(str, FILES))
     assert proc.returncode == 0, proc.stdout + proc.stderr

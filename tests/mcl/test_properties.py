@@ -103,6 +103,7 @@ def assert_coherent(net: Net, mission: ast.Mission) -> None:
         assert (call.span.line, call.span.col) in starts, call
 
 
+@pytest.mark.slow
 @settings(PROFILE, max_examples=examples(100))
 @given(ICTINEU)
 def test_every_valid_mission_compiles_to_a_coherent_net(mission: ast.Mission) -> None:
@@ -143,6 +144,7 @@ SMALL_GENERIC = st.sampled_from(["paired", "free"]).flatmap(
     .map(lambda m: (lamps, m)))
 
 
+@pytest.mark.slow
 @settings(PROFILE, max_examples=examples(100))
 @given(SMALL_GENERIC)
 def test_generic_missions_are_sound(case: tuple[str, ast.Mission]) -> None:
@@ -221,6 +223,7 @@ def compiles_or_located_error(name: str, text: str) -> None:
         assert_coherent(compiled.net, compiled.mission)
 
 
+@pytest.mark.slow
 @settings(PROFILE, max_examples=examples(300))
 @given(st.data())
 def test_mutated_programs_compile_or_give_a_located_error(data: st.DataObject) -> None:
@@ -230,6 +233,7 @@ def test_mutated_programs_compile_or_give_a_located_error(data: st.DataObject) -
     compiles_or_located_error(name, text)
 
 
+@pytest.mark.slow
 @settings(PROFILE, max_examples=examples(200))
 @given(S.any_missions())
 def test_well_formed_but_meaningless_missions_compile_or_give_a_located_error(
@@ -389,6 +393,7 @@ def test_deeply_nested_values_through_mclc(tmp_path: Path) -> None:
     assert "internal error" not in proc.stderr
 
 
+@pytest.mark.slow
 def test_a_long_chain_of_parameters() -> None:
     n = 1500
     params = "".join(f"PARAM p{i} = p{i + 1};\n" for i in range(n)) + f"PARAM p{n} = 1 s;\n"

@@ -11,6 +11,8 @@ import threading
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from mcl.api import compile_file
 from mission import RunResult, run_mission, simulated_vehicle
 from tests.support import MISSIONS, REPO, budget, subprocess_env
@@ -27,6 +29,7 @@ def lines(log: Path) -> list[dict[str, Any]]:
     return [json.loads(line) for line in log.read_text("utf-8").splitlines()]
 
 
+@pytest.mark.slow
 def test_two_missions_in_two_threads_end_as_each_alone(tmp_path: Path) -> None:
     alone = [run_one(m, seed, tmp_path / f"alone-{m.stem}.jsonl") for m, seed in FLEET]
     together: list[RunResult | BaseException | None] = [None] * len(FLEET)
@@ -58,6 +61,7 @@ def test_two_missions_in_two_threads_end_as_each_alone(tmp_path: Path) -> None:
     assert alone[0].mission != alone[1].mission
 
 
+@pytest.mark.slow
 def test_the_example_runs_two_vehicles_side_by_side(tmp_path: Path) -> None:
     done = subprocess.run([sys.executable, str(REPO / "examples" / "two_vehicles.py"),
                            str(tmp_path)], capture_output=True, text=True, cwd=REPO,

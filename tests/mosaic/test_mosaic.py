@@ -198,6 +198,7 @@ def test_homography_matches_the_projection() -> None:
     assert np.allclose(apply(h, px), wall_points(pose[None, :], a, b), atol=1e-6)
 
 
+@pytest.mark.slow
 def test_the_stack_keeps_its_images_and_mcl_run_reports_the_mosaic(tmp_path: Path) -> None:
     """The hook of ``mcl run``: the simulated stack's camera renders and writes each image
     with the navigation data of the instant; the report builds the mosaic beside the log."""

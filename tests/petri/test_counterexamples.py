@@ -13,6 +13,7 @@ own fixed rule, where the verifier explores every order.)"""
 from __future__ import annotations
 
 from hypothesis import HealthCheck, Phase, given, settings
+import pytest
 
 from mcl import ast, printer
 from mcl.api import compile_source
@@ -34,6 +35,7 @@ def conflict(net_dofs: dict[str, tuple[str, ...]], on: set[str]) -> bool:
     return False
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow],
           phases=[Phase.explicit, Phase.reuse, Phase.generate, Phase.target])
 @given(blocks(2))
@@ -74,6 +76,7 @@ def test_reported_violations_replay_on_the_player(body: ast.Block) -> None:
         COUNTS["checked"] += 1
 
 
+@pytest.mark.slow
 def test_some_violations_were_replayed() -> None:
     """Not vacuous: the random missions above do contain violations."""
     print(f"replayed {COUNTS['checked']} counterexamples on the player")

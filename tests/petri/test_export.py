@@ -17,6 +17,7 @@ from tests.support import MISSIONS, cli
 pm4py = pytest.importorskip("pm4py")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mission", ["dam_inspection", "every_construct"])
 def test_pm4py_reads_our_pnml(mission: str, tmp_path: Path) -> None:
     out = tmp_path / f"{mission}.pnml"

@@ -66,6 +66,7 @@ ORACLE = [pytest.param(row, id=row["model"],
           for row in oracle_rows()]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("row", ORACLE)
 def test_oracle(row: dict[str, str], tmp_path: Path) -> None:
     net = read_pnml(extract(row["model"], tmp_path) / "model.pnml")
@@ -119,6 +120,7 @@ def consistent(net: Net, report: dict[str, object]) -> None:
         assert arcs >= markings  # every marking has a successor
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", UNLISTED)
 def test_unlisted_model(model: str, tmp_path: Path) -> None:
     model_dir = extract(model, tmp_path)
@@ -193,6 +195,7 @@ def mclc_limited(*args: str, prelude: str = "") -> subprocess.CompletedProcess[s
                           stdin=subprocess.DEVNULL, preexec_fn=cap)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("engine", list(ENGINES_RUN))
 def test_philosophers_50_gets_an_answer_within_the_memory_limit(engine: str,
                                                                  tmp_path: Path) -> None:

@@ -40,6 +40,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: I001  (MAVL
 
 from tests.support import BIN, MISSIONS, REPO, budget, end, free_udp_port, started, stop
 
+pytestmark = pytest.mark.slow  # real vehicle processes over MAVLink: not in make test-quick
+
 DAM = str(MISSIONS / "dam_inspection.mcl")
 SPEED = 100.0  # the dam mission lasts ~1200 s of simulated time: ~15 s of wall time here
 SEED = 1
@@ -116,7 +118,8 @@ def vehicle_process(port: int, tmp_path: Path, *extra: str, speed: float = SPEED
 def mavproxy(master_port: int, out_port: int, tmp_path: Path) -> Iterator[None]:
     """MAVProxy routing between the vehicle (master) and the player (out), headless."""
     if not MAVPROXY.exists():
-        pytest.fail(f"{MAVPROXY} is not installed: pip install -e '.[test]'")
+        pytest.fail(f"{MAVPROXY} is not installed: make test installs it (pip install "
+                    "--no-deps MAVProxy, see the Makefile)")
     proc = subprocess.Popen(
         [str(MAVPROXY), f"--master=udpin:127.0.0.1:{master_port}",
          f"--out=udpout:127.0.0.1:{out_port}", "--daemon", "--non-interactive", "--no-state",

@@ -35,6 +35,8 @@ from vehicle_adapters.zenoh_link import ZenohVehicle  # noqa: E402
 from tests.support import (  # noqa: E402
     MISSIONS, REPO, TOLERANT_LEASE_MS, budget, free_endpoint, started)
 
+pytestmark = pytest.mark.slow  # real vehicle processes over Zenoh: not in make test-quick
+
 DAM = str(MISSIONS / "dam_inspection.mcl")
 SPEED = 100.0  # the dam mission lasts ~1200 s of simulated time: ~12 s of wall time
 SEED = 1

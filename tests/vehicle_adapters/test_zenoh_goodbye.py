@@ -19,6 +19,8 @@ from aal.zenoh import keys, zenoh_config  # noqa: E402
 from tests.support import budget, cli, free_endpoint, write  # noqa: E402
 from tests.vehicle_adapters.test_zenoh import stop, vehicle_process  # noqa: E402
 
+pytestmark = pytest.mark.slow  # a real vehicle process over Zenoh: not in make test-quick
+
 SHORT = "MISSION short { GoTo((-1, 0, 1, 0)) }\n"
 PLAYER_TIMEOUT = 0.3  # wall s: the vehicle's failsafe delay in these tests
 

@@ -26,6 +26,7 @@ from datetime import timedelta
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+import pytest
 
 from diagnostics import Source
 from mcl import ast, printer
@@ -131,6 +132,7 @@ MISSIONS = st.one_of(
 
 
 # the deadline is a hang guard, not a measure: the counts are what is asserted
+@pytest.mark.slow
 @settings(max_examples=30, database=None, deadline=timedelta(seconds=60),
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(MISSIONS)

@@ -227,6 +227,7 @@ def waiting(net: Net, player: Player) -> list[str]:
                    if tr.event not in (None, MISSION_ABORT) and player.enabled(t)})
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much,
                                  HealthCheck.data_too_large])

@@ -94,6 +94,7 @@ class LapByLap(Nominal):
         return None
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(mission=S.ictineu_missions(max_depth=2, max_calls=7, with_params=False))
@@ -107,6 +108,7 @@ def test_the_estimate_equals_a_lap_by_lap_walk(mission: ast.Mission) -> None:
     assert n.steps <= work_bound(checked.mission.body)
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(mission=S.ictineu_missions(max_depth=6, max_calls=16, with_params=False),

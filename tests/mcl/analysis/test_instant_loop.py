@@ -11,6 +11,7 @@ from pathlib import Path
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+import pytest
 
 from mcl import printer
 from mcl.analysis import structural
@@ -84,6 +85,7 @@ def test_the_structural_route_finds_the_same_instant_loops(data: st.DataObject) 
     assert found == instant(reference).status, f"{lib.text}\n{text}"
 
 
+@pytest.mark.slow
 def test_mclc_names_the_loop_and_the_events(tmp_path: Path) -> None:
     spinning, waiting = tmp_path / "spin.mcl", tmp_path / "wait.mcl"
     spinning.write_text(GOTO % "", "utf-8")

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
+import pytest
 
 from mcl import ast, compiler, printer, tasklib
 
@@ -66,6 +67,7 @@ def markings(net: Net, ss: rg.StateSpace) -> set[tuple[str, ...]]:
             for row in ss.markings}
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(MISSIONS)

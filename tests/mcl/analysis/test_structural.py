@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+import pytest
 
 from mcl import ast, printer
 
@@ -69,6 +70,7 @@ def blocks(depth: int) -> st.SearchStrategy[ast.Block]:
 STATS = {"runs": 0, "false_alarms": 0}
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(blocks(2))
 def test_structural_misses_no_violation(body: ast.Block) -> None:
@@ -96,6 +98,7 @@ def test_structural_misses_no_violation(body: ast.Block) -> None:
     STATS["runs"] += 1
 
 
+@pytest.mark.slow
 def test_structural_agrees_with_explicit_on_the_shipped_missions() -> None:
     for path in sorted(MISSIONS.glob("*.mcl")):
         compiled = compile_source(Source(str(path), path.read_text()))
@@ -131,6 +134,7 @@ def test_a_template_that_fails_with_generic_children_fails_the_structural_route(
     assert verdict.results[0].status == "undecided" and not verdict.failed
 
 
+@pytest.mark.slow
 def test_report_false_alarm_rate() -> None:
     """Not a check: prints how often the over-approximation raised a false alarm above."""
     print(f"structural false alarms: {STATS['false_alarms']} in {STATS['runs']} missions")

@@ -121,6 +121,7 @@ def _leaf() -> st.SearchStrategy[ast.Call]:
     return st.sampled_from([c for c in LEAVES if isinstance(c, ast.Call)])
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(bodies(_leaf(), 3, 6))
@@ -160,6 +161,7 @@ QUOTED_FILE = ("PARAM start = (0, 0, 1, 0 deg);\n"
                "MISSION m { WHILE { Wait(1 s) } DO { GoTo(start, timeout = 2 min) } }\n")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["auto", "explicit", "structural"])
 def test_mclc_fails_the_quoted_loop_on_terminates_with_its_while(tmp_path: Path,
                                                                   method: str) -> None:

@@ -166,6 +166,7 @@ def write_lines(path: Path, records: list[dict[str, Any]]) -> None:
                             for r in records), "utf-8")
 
 
+@pytest.mark.slow
 @HYPOTHESIS
 @given(mission=st.one_of(S.generic_missions(max_depth=3, max_calls=8, lamps="paired"),
                          S.generic_missions(max_depth=2, max_calls=6, lamps="free")

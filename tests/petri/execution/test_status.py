@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import pytest
+
 from mcl.api import compile_file
 from petri.execution.player import Player, Record
 from petri.execution.runner import run
@@ -38,6 +40,7 @@ def test_task_calls_are_the_missions_in_source_order() -> None:
     assert lines == sorted(lines) and len(calls) == len(set(calls)) == 15
 
 
+@pytest.mark.slow
 def test_the_status_follows_the_survey_to_its_end() -> None:
     published, records, player = run_dam()
     first, last = published[0], published[-1]
@@ -58,6 +61,7 @@ def test_the_status_follows_the_survey_to_its_end() -> None:
     assert [s["done"] for s in published] == sorted(s["done"] for s in published)
 
 
+@pytest.mark.slow
 def test_a_leak_shows_the_catch_running_and_the_surfacing() -> None:
     published, _, _ = run_dam("leak@600")
     running = {r["task"] for s in published for r in s["running"]}

@@ -48,6 +48,7 @@ def test_graphml_to_a_binary_file_and_its_limit() -> None:
 
 # -- mclc --graphml ---------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_mclc_writes_the_graph_it_verified(tmp_path: Path) -> None:
     mission = write(tmp_path, MISSION)
     out = tmp_path / "g.graphml"
@@ -61,6 +62,7 @@ def test_mclc_writes_the_graph_it_verified(tmp_path: Path) -> None:
     assert f"  wrote reachability graph to {out}\n" in text.stdout
 
 
+@pytest.mark.slow
 def test_mclc_writes_the_graph_of_a_pnml_net(tmp_path: Path) -> None:
     net = compile_source(Source("m.mcl", MISSION)).net
     pnml = tmp_path / "m.pnml"
@@ -74,6 +76,7 @@ def test_mclc_writes_the_graph_of_a_pnml_net(tmp_path: Path) -> None:
     assert graph.number_of_nodes() == rg.explore(net).n_markings
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("options, why", [
     (["--method", "structural"], "the structural route explores none: use --method explicit"),
     (["--no-verify"], "--no-verify explores none: use --method explicit"),

@@ -277,6 +277,7 @@ def test_cli_reports_a_bad_file_with_its_position(tmp_path: Path) -> None:
     assert proc.stdout == ""
 
 
+@pytest.mark.slow
 def test_cli_text_and_json(tmp_path: Path) -> None:
     net = sample_net()  # its source transition '9 bad id' fills 'pool' forever
     write_pnml(net, tmp_path / "unbounded.pnml")

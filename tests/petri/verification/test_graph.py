@@ -201,6 +201,7 @@ def main_model(net: Net, verdict: Verdict) -> tuple[nx.MultiDiGraph, set[int], s
     return main, final, set(main) - can_end
 
 
+@pytest.mark.slow
 @settings(max_examples=80, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(st.one_of(generic_missions(max_depth=2, max_calls=5, lamps="free"), looping_missions()))

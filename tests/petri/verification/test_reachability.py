@@ -28,6 +28,7 @@ def fire(net: Net, marking: np.ndarray, t: int) -> np.ndarray:
 
 # -- hand-made nets -----------------------------------------------------------------------
 
+@pytest.mark.slow
 @pytest.mark.parametrize("engine", ENGINES)
 def test_a_deadlock(engine: str) -> None:
     # start --t0--> middle --t1--> end, one token: three markings in a line, the last dead.

@@ -242,6 +242,7 @@ class Watch:
             self.steps.append((record.data["index"], bytes(self.player.marking)))
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much,
                                  HealthCheck.data_too_large])

@@ -102,6 +102,7 @@ class _Runs(dict[str, Run]):
 
 
 # --- a good survey ------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_the_dam_mission_ends_ok(runs: dict[str, Run]) -> None:
     r = runs["dam"]
     assert r.outcome.status == "ok", r.outcome
@@ -110,6 +111,7 @@ def test_the_dam_mission_ends_ok(runs: dict[str, Run]) -> None:
     assert 600.0 < r.outcome.time < 3600.0
 
 
+@pytest.mark.slow
 def test_the_dam_mission_is_driven_by_the_events_of_a_good_survey(runs: dict[str, Run]) -> None:
     r = runs["dam"]
     causes = r.causes()
@@ -125,6 +127,7 @@ def test_the_dam_mission_is_driven_by_the_events_of_a_good_survey(runs: dict[str
     assert r.stack.coordinator.overlaps == 0
 
 
+@pytest.mark.slow
 def test_the_run_log_replays(runs: dict[str, Run]) -> None:
     r = runs["dam"]
     compiled = compile_file(str(DAM), require_values=True)
@@ -132,6 +135,7 @@ def test_the_run_log_replays(runs: dict[str, Run]) -> None:
     assert result.ok, result.reason
 
 
+@pytest.mark.slow
 def test_the_survey_figures_are_of_the_field_trials_order(runs: dict[str, Run]) -> None:
     s = runs["dam"].stack.survey.summary()
     print("\nsurvey summary (seed 1):", s)
@@ -141,6 +145,7 @@ def test_the_survey_figures_are_of_the_field_trials_order(runs: dict[str, Run]) 
     assert s["images"] > 500
 
 
+@pytest.mark.slow
 def test_the_accuracy_targets_are_met_during_the_survey(runs: dict[str, Run]) -> None:
     survey = runs["dam"].stack.survey
     s = survey.summary()
@@ -151,11 +156,13 @@ def test_the_accuracy_targets_are_met_during_the_survey(runs: dict[str, Run]) ->
     assert s["usbl_fixes"] > 500 and s["usbl_rejected"] < 0.2 * s["usbl_fixes"]
 
 
+@pytest.mark.slow
 def test_the_vehicle_ends_at_the_recovery_point(runs: dict[str, Run]) -> None:
     state = runs["dam"].stack.robot.state
     assert math.dist((state.x, state.y, state.z), (-5.0, 7.5, 0.5)) < 1.0  # tolerance 0.5 m
 
 
+@pytest.mark.slow
 def test_no_behaviour_is_left_active_at_the_end(runs: dict[str, Run]) -> None:
     for case in ("dam", "leak@600"):
         stack = runs[case].stack
@@ -165,6 +172,7 @@ def test_no_behaviour_is_left_active_at_the_end(runs: dict[str, Run]) -> None:
 
 
 # --- determinism ----------------------------------------------------------------------------
+@pytest.mark.slow
 def test_the_same_seed_gives_the_same_log(runs: dict[str, Run]) -> None:
     a, b = runs["dam"], runs["dam again"]
     assert a.records == b.records
@@ -173,6 +181,7 @@ def test_the_same_seed_gives_the_same_log(runs: dict[str, Run]) -> None:
     assert a.stack.survey.summary() == b.stack.survey.summary()
 
 
+@pytest.mark.slow
 def test_a_different_seed_gives_a_different_trajectory(runs: dict[str, Run]) -> None:
     one, two = runs["seed 1, 60 s"], runs["seed 2, 60 s"]
     assert one.outcome.status == two.outcome.status == "timeout"
@@ -190,6 +199,7 @@ def test_a_different_seed_gives_a_different_trajectory(runs: dict[str, Run]) -> 
     assert [c for _, c in two.causes()][:1] == ["GoTo.reached"]  # the same mission, though
 
 
+@pytest.mark.slow
 def test_a_fault_changes_nothing_before_it_happens(runs: dict[str, Run]) -> None:
     # every sensor draws from its own stream: the housing's fault leaves the rest unchanged
     ok, leak = runs["dam"].stack.survey.truth, runs["leak@600"].stack.survey.truth
@@ -198,6 +208,7 @@ def test_a_fault_changes_nothing_before_it_happens(runs: dict[str, Run]) -> None
 
 
 # --- faults ---------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_a_leak_at_600_s_runs_the_catch_and_surfaces(runs: dict[str, Run]) -> None:
     r = runs["leak@600"]
     assert r.outcome.status == "ok", r.outcome  # the CATCH ... DO handles it
@@ -216,6 +227,7 @@ def test_a_leak_at_600_s_runs_the_catch_and_surfaces(runs: dict[str, Run]) -> No
     assert actions.index(("disable", "WallInspection")) < actions.index(("enable", "Surface"))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fault, alarm_after", [("overtemperature", 60.0),
                                                 ("overpressure", 50.0)])
 def test_overtemperature_and_overpressure_run_the_catch_too(runs: dict[str, Run], fault: str,
@@ -357,6 +369,7 @@ def test_pushed_onto_the_floor_the_vehicle_stops_there_and_the_navigator_holds()
 
 
 # --- the plot -------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_the_svg_is_well_formed_with_the_path_as_a_polyline(runs: dict[str, Run]) -> None:
     survey = runs["dam"].stack.survey
     root = ET.fromstring(survey.svg("dam_inspection"))
@@ -388,6 +401,7 @@ def no_traceback(result: object) -> None:
     assert "internal error" not in out, out
 
 
+@pytest.mark.slow
 def test_mcl_run_with_a_leak_exits_0_reports_the_survey_and_replays(tmp_path: Path) -> None:
     log = tmp_path / "dam_leak.jsonl"
     result = cli("mcl", "run", "missions/dam_inspection.mcl", "--inject", "leak@600",
@@ -411,6 +425,7 @@ def test_mcl_run_with_a_leak_exits_0_reports_the_survey_and_replays(tmp_path: Pa
     assert "conforms" in replay.stdout
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("inject", ["flood@10", "leak@-3", "leak", "leak@", "@600", "leak@soon",
                                     "leak@nan"])
 def test_mcl_run_refuses_a_bad_inject(tmp_path: Path, inject: str) -> None:

@@ -209,6 +209,7 @@ def test_the_cable_is_tracked_within_bounds_from_a_near_start() -> None:
     assert math.degrees(float(np.sqrt(np.mean(np.square(a_err))))) < 3.0
 
 
+@pytest.mark.slow
 def test_the_particle_filter_recovers_the_cable_after_a_gap() -> None:
     bed = straight("cable", 0.12, 0.18, buried=((5.0, 8.0),))
     line = bed.lines[0]

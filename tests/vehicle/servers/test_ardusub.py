@@ -30,6 +30,8 @@ from vehicle.servers import ardusub  # noqa: E402
 
 from tests.support import REPO, budget, first_line, free_udp_port  # noqa: E402
 
+pytestmark = pytest.mark.slow  # the ArduSub-like vehicle as a real process: not in make test-quick
+
 mav = mavutil.mavlink
 WAIT = budget(3.0)  # wall s: the longest any single wait may take before the test fails
 GUIDED, SURFACE, MANUAL = ardusub.MODES["GUIDED"], ardusub.MODES["SURFACE"], \

@@ -10,6 +10,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from behaviours.seabed import SEABED, statements
 from mcl import tasklib
@@ -130,6 +131,7 @@ def events(records: list[dict[str, object]]) -> list[str]:
     return [str(r["event"]) for r in records if r.get("kind") == "event"]
 
 
+@pytest.mark.slow
 def test_the_pipeline_mission_follows_the_pipe_to_its_end(tmp_path: Path) -> None:
     code, out, records = run_mission(tmp_path, "pipeline_inspection")
     assert code == 0, out
@@ -148,6 +150,7 @@ def test_the_pipeline_mission_follows_the_pipe_to_its_end(tmp_path: Path) -> Non
     assert svg.startswith("<svg") and svg.count("<polyline") >= 1 and "<circle" in svg
 
 
+@pytest.mark.slow
 def test_the_cable_mission_tracks_the_cable_to_its_end(tmp_path: Path) -> None:
     code, out, records = run_mission(tmp_path, "cable_tracking")
     assert code == 0, out
@@ -159,6 +162,7 @@ def test_the_cable_mission_tracks_the_cable_to_its_end(tmp_path: Path) -> None:
     assert float(rms) < 0.25 and float(worst) < 0.8 and float(heading) < 10.0
 
 
+@pytest.mark.slow
 def test_without_a_line_the_mission_searches_then_fails_at_the_surface(tmp_path: Path) -> None:
     code, out, records = run_mission(tmp_path, "cable_tracking", "--inject", "burial@0")
     assert code == 1, out
