@@ -35,6 +35,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from diagnostics import MclError
 from mcl import values
 from mcl.api import Compiled, compile_file, parse_params
 from mission.exits import Exit
@@ -47,7 +48,7 @@ from petri.execution.signing import Signer
 
 from app import arguments, vehicles
 from app.guard import guarded
-from app.mclc import OutputError
+from app.mclc import OutputError, check_output
 from app.safe_exit import Output, ReportCut, Stops
 
 if TYPE_CHECKING:
@@ -80,6 +81,10 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
                    help="sign every line of the run log with this Ed25519 key (a PEM file: "
                         "openssl genpkey -algorithm ed25519 -out run.key); 'mcl replay --key' "
                         "then refuses a log edited and re-signed without it")
+    r.add_argument("--mcap", metavar="FILE", default=None,
+                   help="also write the run as an MCAP file for Foxglove, at its end: the "
+                        "log, each task's state, the vehicle's poses and track, the camera's "
+                        "images (docs/MCAP.md; 'mcl export' makes one from a run log)")
     r.add_argument("--quiet", action="store_true", help="no timeline, only the final status")
     r.add_argument("--no-images", action="store_true",
                    help="simulated vehicle: do not render and keep the camera's images, so no "
@@ -153,6 +158,8 @@ def _param_texts(overrides: dict[str, Any]) -> dict[str, str]:
 
 def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
     _check_log(Path(args.log) if args.log else Path("out/runs/MISSION.jsonl"))
+    if args.mcap is not None:
+        check_output(args.mcap, "--mcap")
     signer = Signer.load(args.log_key) if args.log_key is not None else None
     overrides = parse_params(args.param, args.params)
     compiled = compile_file(args.mission, args.tasks or None, overrides, require_values=True)
@@ -201,6 +208,8 @@ def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicl
         _stand_in(log_path, result)
     try:
         _summary(args.mission, result, chosen, out, log_path)
+        if args.mcap is not None:
+            _write_mcap(Path(args.mcap), chosen, log_path, out)
     except ReportCut as cut:
         _warn(cut.line())
     except Exception as exc:  # noqa: BLE001 - the run has ended: its status stands
@@ -209,6 +218,21 @@ def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicl
         _warn(f"mcl run: the report after the run failed: {type(exc).__name__}: {exc} "
               "(the run log's end record stands)")
     return result.exit
+
+
+def _write_mcap(path: Path, chosen: Vehicle, log_path: Path, out: Output) -> None:
+    """The run as an MCAP file (``--mcap``), from its log once written, with the simulated
+    vehicle's whole track; why not, on one line, without changing the exit status."""
+    from app.export import export  # here for start-up speed: only a run that asks for it
+    from mission.mcap_export import track_of_survey
+
+    track = track_of_survey(chosen.stack.survey) if chosen.stack is not None else None
+    try:
+        written = export(log_path, path, track)
+    except MclError as exc:
+        _warn(f"mcl run: --mcap {path}: not written: {exc.format().splitlines()[0]}")
+        return
+    out.say(f"  mcap: {written.line()}")
 
 
 def _beside(log_path: Path) -> bool:

@@ -26,6 +26,7 @@ class Survey:
     env: Environment
     truth: list[tuple[float, float, float, float]] = field(default_factory=list)  # t, x, y, z
     estimate: list[tuple[float, float, float]] = field(default_factory=list)  # x, y, z
+    headings: list[tuple[float, float]] = field(default_factory=list)  # true, estimated yaw
     nav_errors: list[float] = field(default_factory=list)  # horizontal, m
     wall_dist_errors: list[float] = field(default_factory=list)  # during the survey, m
     wall_head_errors: list[float] = field(default_factory=list)  # during the survey, rad
@@ -45,6 +46,7 @@ class Survey:
             self.truth.append((t, s.x, s.y, s.z))
             ex, ey, ez = (float(navigator.x[i]) for i in range(3))
             self.estimate.append((ex, ey, ez))
+            self.headings.append((s.psi, float(navigator.x[3])))
         ex, ey = float(navigator.x[0]), float(navigator.x[1])
         self.nav_errors.append(math.hypot(ex - s.x, ey - s.y))
         if surveying and tracker is not None:
