@@ -52,6 +52,7 @@ from app.mclc import OutputError, check_output
 from app.safe_exit import Output, ReportCut, Stops
 
 if TYPE_CHECKING:
+    from mission.foxglove_live import LiveView
     from vehicle.control.stack import IctineuStack
 
 STOP_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
@@ -85,6 +86,10 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
                    help="also write the run as an MCAP file for Foxglove, at its end: the "
                         "log, each task's state, the vehicle's poses and track, the camera's "
                         "images (docs/MCAP.md; 'mcl export' makes one from a run log)")
+    r.add_argument("--foxglove", metavar="HOST:PORT", default=None, type=_address,
+                   help="serve the run live to Foxglove (its WebSocket protocol, "
+                        "foxglove.sdk.v1): the log, each task's state, the vehicle's poses; "
+                        "needs the optional extra mcl-auv[foxglove] (docs/MCAP.md)")
     r.add_argument("--quiet", action="store_true", help="no timeline, only the final status")
     r.add_argument("--no-images", action="store_true",
                    help="simulated vehicle: do not render and keep the camera's images, so no "
@@ -119,6 +124,16 @@ def _seconds(text: str) -> float:
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"{text!r} is not a positive number of seconds")
     return value
+
+
+def _address(text: str) -> tuple[str, int]:
+    """--foxglove: HOST:PORT."""
+    from mission.foxglove_live import address  # here for start-up speed: only --foxglove
+
+    try:
+        return address(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _check_log(path: Path) -> None:
@@ -178,24 +193,44 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
               "vehicle": args.vehicle, "seed": args.seed, "inject": args.inject}
     clock = MissionClock()
     out = Output()
+    live = _live(args.foxglove, compiled, chosen, header)
     stops = Stops(STOP_SIGNALS)
     try:
         return _run_and_report(args, compiled, chosen, log_path, header, clock, out, stops,
-                               signer)
+                               signer, [live] if live is not None else [])
     finally:
         stops.restore()
+        if live is not None:
+            live.close(chosen.stack.survey if chosen.stack is not None else None)
+
+
+def _live(where: tuple[str, int] | None, compiled: Compiled, chosen: Vehicle,
+          header: dict[str, Any]) -> LiveView | None:
+    """The live view of ``--foxglove`` (None without it), serving before the run starts."""
+    if where is None:
+        return None
+    from mission.foxglove_live import LiveView, task_calls  # start-up speed: only --foxglove
+
+    live = LiveView(*where, {**header, "mission": compiled.name}, task_calls(compiled.net))
+    print(f"mcl run: serving Foxglove at ws://{where[0]}:{live.port} (foxglove.sdk.v1)",
+          file=sys.stderr, flush=True)
+    if chosen.stack is not None:
+        live.follow(chosen.stack.survey)
+    return live
 
 
 def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicle,
                     log_path: Path, header: dict[str, Any], clock: MissionClock, out: Output,
-                    stops: Stops, signer: Signer | None) -> int:
+                    stops: Stops, signer: Signer | None,
+                    watchers: list[Callable[[Any], None]]) -> int:
     """Run the mission, then report on it; what goes wrong in the report (a full disk, its
     folder removed, a signal) never changes the exit status the end record says."""
     try:
         result = run_mission(
             compiled, chosen, log=log_path, header=header, max_time=args.max_time,
             stop=stops.request, verify=not args.no_verify, clock=clock, end_note=out.note,
-            observers=[] if args.quiet else [_Timeline(compiled, clock, out)], during=stops,
+            observers=[*watchers, *([] if args.quiet else [_Timeline(compiled, clock, out)])],
+            during=stops,
             waiting=_waiting, signer=signer)
     except NoVehicle as exc:  # refused before the start: nothing was sent
         print(f"mcl run: {exc}\n  run log: {log_path}", file=sys.stderr)

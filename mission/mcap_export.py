@@ -112,7 +112,7 @@ def pose_of(p: Pose) -> dict[str, Any]:
 
 
 def pose_messages(track: Track) -> Iterable[Message]:
-    """The poses, the navigator's error and the track, in segments that stay on screen."""
+    """The true and estimated poses, and the navigator's error as numbers to plot."""
     for who, poses in (("true", track.truth), ("estimated", track.estimate)):
         for p in poses:
             yield Message(p.t, f"/vehicle/pose/{who}", "foxglove.PoseInFrame",
@@ -123,13 +123,19 @@ def pose_messages(track: Track) -> Iterable[Message]:
             "true_yaw": p.yaw, "estimated_x": e.x, "estimated_y": e.y, "estimated_z": e.z,
             "estimated_yaw": e.yaw, "error_horizontal": math.hypot(e.x - p.x, e.y - p.y),
             "error_depth": e.z - p.z})
+
+
+def track_messages(track: Track, first: int = 0) -> Iterable[Message]:
+    """The track in segments of :data:`SEGMENT` poses that stay on screen, then the wall and
+    the USBL fixes; ``first``: the number of the track's first pose (a live run sends it in
+    stretches)."""
     for start in range(0, max(len(track.truth) - 1, 0), SEGMENT):
         end = min(start + SEGMENT, len(track.truth) - 1)
         t = track.truth[end].t
         lines = [line(track.truth[start:end + 1], TRUE_COLOR),
                  line(track.estimate[start:end + 1], ESTIMATE_COLOR)]
-        yield Message(t, "/vehicle/track", "foxglove.SceneUpdate",
-                      {"deletions": [], "entities": [entity(t, f"track/{start}", lines=lines)]})
+        yield Message(t, "/vehicle/track", "foxglove.SceneUpdate", {
+            "deletions": [], "entities": [entity(t, f"track/{first + start}", lines=lines)]})
     if track.truth:
         yield usbl_and_wall(track)
 
@@ -200,8 +206,9 @@ def write_mcap(out: Path, records: list[dict[str, Any]], track: Track | None = N
     from mcap.writer import Writer  # lazy, for start-up speed: only a run that asks for it
 
     items: list[tuple[float, int, Message | Callable[[], Message]]] = []
-    messages: Iterable[Message] = [*LogMessages(records),
-                                   *(pose_messages(track) if track is not None else ())]
+    messages: Iterable[Message] = [*LogMessages.of_log(records),
+                                   *(pose_messages(track) if track is not None else ()),
+                                   *(track_messages(track) if track is not None else ())]
     for n, m in enumerate(messages):
         items.append((m.t, n, m))
     for n, picture in enumerate(pictures, start=len(items)):

@@ -2,7 +2,7 @@
 
 Each record of the run log (petri/execution/runlog.py) becomes one ``foxglove.Log`` message
 on ``/mission/log`` with the MCL ``file`` and ``line`` it comes from: an action (the line of its
-task call), an event (the line of the first firing it caused; 0 when it fired nothing), a
+task call), an event (the line of the firing it caused, which follows it; else 0), a
 firing (its line), a status change, a note, the player's cleanup and the end record. Every
 change of a task call's state (waiting, running, ok, fail, aborted, read from the firings of
 its transitions) gives a ``mcl.MissionStatus`` message on ``/mission/status`` with every task
@@ -53,7 +53,12 @@ def task_calls(records: list[dict[str, Any]]) -> list[str]:
     """The task calls whose transitions fired in the log, in source order."""
     calls = {block_of(str(r["transition"])) for r in records
              if r["kind"] == "fire" and "(" in str(r.get("construct", ""))}
-    return sorted(calls, key=lambda c: (call_line(c), c.rpartition(":")[2].zfill(6), c))
+    return sorted(calls, key=source_order)
+
+
+def source_order(call: str) -> tuple[int, str, str]:
+    """A task call's place in the mission: its line, then its column."""
+    return call_line(call), call.rpartition(":")[2].zfill(6), call
 
 
 def next_state(current: str, transition: str) -> str:
@@ -72,32 +77,58 @@ def next_state(current: str, transition: str) -> str:
 
 
 class LogMessages:
-    """The log and status messages of one run log (its records, read by runlog.read_log)."""
+    """The log and status messages of a run's records, fed one at a time (:meth:`feed`), as
+    a run log holds them; ``calls``: the mission's task calls (each starts ``waiting``). An
+    event's message waits for the next record: the firing it caused names its line."""
 
-    def __init__(self, records: list[dict[str, Any]]):
-        self.records = records
-        self.header = records[0]
-        self.file = str(self.header.get("file", ""))
-        self.mission = str(self.header.get("mission", ""))
-        self.states = {call: "waiting" for call in task_calls(records)}
+    def __init__(self, header: dict[str, Any], calls: list[str]):
+        self.file = str(header.get("file", ""))
+        self.mission = str(header.get("mission", ""))
+        self.states = {call: "waiting" for call in calls}
         self.status = "running"
+        self.event: dict[str, Any] | None = None  # the last event, its line not yet known
 
-    def __iter__(self) -> Iterator[Message]:
-        records = self.records
-        for i, r in enumerate(records[1:], start=1):
-            t = float(r["t"])
-            yield self.log(t, *self.said(r, records, i))
-            if r["kind"] == "fire":
-                call = block_of(str(r["transition"]))
-                if call in self.states:
-                    state = next_state(self.states[call], str(r["transition"]))
-                    if state != self.states[call]:
-                        self.states[call] = state
-                        yield self.status_message(t)
-            elif r["kind"] in ("status", "end"):
-                self.status = str(r.get("status", "ended")) if r["kind"] == "status" else (
-                    self.status if self.status in ("ok", "fail") else "ended")
-                yield self.status_message(t)
+    @classmethod
+    def of_log(cls, records: list[dict[str, Any]]) -> Iterator[Message]:
+        """Every message of a run log's records (read by runlog.read_log)."""
+        messages = cls(records[0], task_calls(records))
+        for r in records[1:]:
+            yield from messages.feed(r)
+        yield from messages.flush()
+
+    def feed(self, r: dict[str, Any]) -> list[Message]:
+        """The messages of one record (``t``, ``kind`` and its fields)."""
+        out = self.flush(r)
+        t = float(r["t"])
+        if r["kind"] == "event":
+            self.event = r
+        else:
+            out.append(self.log(t, *said(r)))
+        if r["kind"] == "fire":
+            call = block_of(str(r["transition"]))
+            if call in self.states:
+                state = next_state(self.states[call], str(r["transition"]))
+                if state != self.states[call]:
+                    self.states[call] = state
+                    out.append(self.status_message(t))
+        elif r["kind"] in ("status", "end"):
+            self.status = str(r.get("status", "ended")) if r["kind"] == "status" else (
+                self.status if self.status in ("ok", "fail") else "ended")
+            out.append(self.status_message(t))
+        return out
+
+    def flush(self, after: dict[str, Any] | None = None) -> list[Message]:
+        """The waiting event's message, with the line of ``after`` if that is the firing it
+        caused (else line 0)."""
+        event, self.event = self.event, None
+        if event is None:
+            return []
+        name = str(event.get("event"))
+        line = (int(after.get("line") or 0) if after is not None and after["kind"] == "fire"
+                and after.get("cause") == name else 0)
+        data = event.get("data") or {}
+        return [self.log(float(event["t"]), INFO, "vehicle", line,
+                         f"event {name}" + (f" {data}" if data else ""))]
 
     def log(self, t: float, level: int, name: str, line: int, message: str) -> Message:
         return Message(t, LOG_TOPIC, "foxglove.Log", {
@@ -110,42 +141,27 @@ class LogMessages:
             "tasks": [{"task": c, "line": call_line(c), "state": s}
                       for c, s in self.states.items()]})
 
-    def said(self, r: dict[str, Any], records: list[dict[str, Any]], i: int
-             ) -> tuple[int, str, int, str]:
-        """A record as a log line: level, name, MCL line, message."""
-        kind = r["kind"]
-        if kind == "action":
-            params = ", ".join(f"{k}={v}" for k, v in (r.get("params") or {}).items())
-            task = str(r.get("task", ""))
-            return (INFO, task, call_line(task),
-                    f"{r.get('action')} {r.get('behaviour')}" + (f"({params})" if params else ""))
-        if kind == "event":
-            event = str(r.get("event"))
-            data = r.get("data") or {}
-            return (INFO, "vehicle", caused_line(records, i, event),
-                    f"event {event}" + (f" {data}" if data else ""))
-        if kind == "ignored":
-            return (WARNING, "vehicle", 0, f"event {r.get('event')} ignored: {r.get('reason')}")
-        if kind == "fire":
-            return (DEBUG, str(r.get("construct", "")), int(r.get("line") or 0),
-                    f"fire {r.get('transition')}: {r.get('label')} ({r.get('cause')})")
-        if kind == "status":
-            return INFO, "mission", 0, f"mission {r.get('status')}"
-        if kind == "cleanup":
-            return (WARNING, "player", 0,
-                    f"cleanup: switching off {', '.join(map(str, r.get('behaviours') or []))}")
-        if kind == "end":
-            level = INFO if r.get("exit") == 0 else ERROR
-            return (level, "mission", 0,
-                    f"run ended {r.get('how')}: {r.get('why')} (exit {r.get('exit')})")
-        return INFO, "note", 0, str(r.get("note", ""))
 
-
-def caused_line(records: list[dict[str, Any]], i: int, event: str) -> int:
-    """The line of the first firing the event at ``records[i]`` caused (0: none)."""
-    for r in records[i + 1:]:
-        if r["kind"] != "fire":
-            return 0
-        if r.get("cause") == event:
-            return int(r.get("line") or 0)
-    return 0
+def said(r: dict[str, Any]) -> tuple[int, str, int, str]:
+    """A record other than an event as a log line: level, name, MCL line, message."""
+    kind = r["kind"]
+    if kind == "action":
+        params = ", ".join(f"{k}={v}" for k, v in (r.get("params") or {}).items())
+        task = str(r.get("task", ""))
+        return (INFO, task, call_line(task),
+                f"{r.get('action')} {r.get('behaviour')}" + (f"({params})" if params else ""))
+    if kind == "ignored":
+        return (WARNING, "vehicle", 0, f"event {r.get('event')} ignored: {r.get('reason')}")
+    if kind == "fire":
+        return (DEBUG, str(r.get("construct", "")), int(r.get("line") or 0),
+                f"fire {r.get('transition')}: {r.get('label')} ({r.get('cause')})")
+    if kind == "status":
+        return INFO, "mission", 0, f"mission {r.get('status')}"
+    if kind == "cleanup":
+        return (WARNING, "player", 0,
+                f"cleanup: switching off {', '.join(map(str, r.get('behaviours') or []))}")
+    if kind == "end":
+        level = INFO if r.get("exit") == 0 else ERROR
+        return (level, "mission", 0,
+                f"run ended {r.get('how')}: {r.get('why')} (exit {r.get('exit')})")
+    return INFO, "note", 0, str(r.get("note", ""))
