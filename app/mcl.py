@@ -31,7 +31,7 @@ COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
     "vehicle": ("app.vehicle", "serve the simulated vehicle over Zenoh or MAVLink: mcl vehicle "
                 "--zenoh ENDPOINT | --mavlink URL [--speed X] [--seed N] [--inject FAULT@S]"),
     "monitor": ("app.monitor", "watch a mission and its vehicle over Zenoh: mcl monitor "
-                "--zenoh ENDPOINT [--until-end]"),
+                "--zenoh ENDPOINT [--until-end] [--foxglove HOST:PORT]"),
     "mosaic": ("app.mosaic", "make the photomosaic and coverage map of a run's images: "
                "mcl mosaic RUN.jsonl [--scale MM_PER_PX]"),
     "export": ("app.export", "write a run log, verified, as an MCAP file for Foxglove: "

@@ -4,12 +4,15 @@
 publishes on it the channels of a run's MCAP file as they happen: a player observer turns each
 record into its ``/mission/log`` and ``/mission/status`` messages (mission/mcap_messages.py),
 and :meth:`LiveView.follow` publishes the simulated vehicle's poses, navigator error and track
-as its survey records them. foxglove-sdk is an optional extra (``pip install
+as its survey records them; ``mcl monitor`` forwards what it hears over Zenoh instead
+(:meth:`LiveView.remote_status`, :meth:`LiveView.remote_pose`). foxglove-sdk is an optional extra (``pip install
 mcl-auv[foxglove]``); without it the view is refused with that hint.
 """
 
 from __future__ import annotations
 
+import json
+import math
 import threading
 from typing import Any
 
@@ -19,7 +22,7 @@ from petri.net import Net
 from petri.semantics import block_of
 
 from mission.foxglove_schemas import SCHEMAS
-from mission.mcap_export import SEGMENT, Track, pose_messages, track_messages, track_of_survey
+from mission.mcap_export import SEGMENT, Pose, Track, pose_messages, track_messages, track_of_survey
 from mission.mcap_messages import LogMessages, nanoseconds, source_order
 
 FOLLOW_EVERY = 0.2  # wall s between two looks at the survey's new poses
@@ -31,6 +34,19 @@ def address(text: str) -> tuple[str, int]:
     if not colon or not host or not port.isdigit() or not 0 <= int(port) < 65536:
         raise ValueError(f"{text!r} is not HOST:PORT (e.g. 127.0.0.1:8765)")
     return host, int(port)
+
+
+def _json_object(text: str | bytes) -> dict[str, Any] | None:
+    try:
+        data = json.loads(text)
+    except ValueError:
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def _number(value: Any) -> bool:
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value))
 
 
 def task_calls(net: Net) -> list[str]:
@@ -110,6 +126,40 @@ class LiveView:
             with self.lock:
                 self.publish(track_messages(part, self.drawn))
             self.drawn = end
+
+    def remote_status(self, text: str | bytes) -> None:
+        """A player's status as ``mcl monitor`` hears it over Zenoh (petri/execution/status.py,
+        ``v`` 1): the task calls it names running are ``running``; one no longer running is
+        ``ended`` (the status does not say how it ended)."""
+        status = _json_object(text)
+        if status is None or status.get("v") != 1:
+            return
+        running = {str(r.get("task")) for r in status.get("running") or []
+                   if isinstance(r, dict)}
+        with self.lock:
+            states = self.messages.states
+            for call in running:
+                states[call] = "running"
+            for call, state in states.items():
+                if state == "running" and call not in running:
+                    states[call] = "ended"
+            self.messages.states = dict(sorted(states.items(), key=lambda i: source_order(i[0])))
+            self.messages.mission = str(status.get("mission", ""))
+            self.messages.status = str(status.get("status", "running"))
+            t = status.get("t")
+            at = float(t) if isinstance(t, (int, float)) and _number(t) else 0.0
+            self.publish([self.messages.status_message(at)])
+
+    def remote_pose(self, text: str | bytes) -> None:
+        """The navigator's telemetry as ``mcl monitor`` hears it (docs/ZENOH.md): its pose,
+        on ``/vehicle/pose/estimated`` (the true pose is the simulator's own)."""
+        data = _json_object(text)
+        if data is None or not all(_number(data.get(k)) for k in ("t", "x", "y", "z", "yaw")):
+            return
+        pose = Pose(*(float(data[k]) for k in ("t", "x", "y", "z", "yaw")))
+        with self.lock:
+            self.publish([m for m in pose_messages(Track([pose], [pose]))
+                          if m.topic == "/vehicle/pose/estimated"])
 
     def close(self, survey: Any = None) -> None:
         """The last poses, then the server stopped."""

@@ -88,7 +88,7 @@ SCENE_UPDATE = _object("foxglove.SceneUpdate", {
         "timestamp": TIME, "type": {"enum": [0, 1]}, "id": {"type": "string"}})},
     "entities": {"type": "array", "items": SCENE_ENTITY}})
 
-TASK_STATES = ("waiting", "running", "ok", "fail", "aborted")
+TASK_STATES = ("waiting", "running", "ok", "fail", "aborted", "ended")  # ended: mcl monitor
 
 MISSION_STATUS = _object("mcl.MissionStatus", {
     "timestamp": TIME,

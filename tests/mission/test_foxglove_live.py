@@ -119,3 +119,20 @@ def test_address(text: str, expected: tuple[str, int]) -> None:
 def test_address_refused(text: str) -> None:
     with pytest.raises(ValueError, match="HOST:PORT"):
         address(text)
+
+
+def test_the_monitor_s_status_marks_a_task_no_longer_running_ended(live: LiveView) -> None:
+    def status(t: float, running: list[str], state: str = "running") -> str:
+        return json.dumps({"v": 1, "mission": "m", "t": t, "status": state,
+                           "running": [{"task": c, "since": 0.0} for c in running]})
+
+    live.remote_status(status(1.0, ["Surface@9:5", "GoTo@3:5"]))
+    assert live.messages.states == {"GoTo@3:5": "running", "Surface@4:5": "waiting",
+                                    "Surface@9:5": "running"}
+    live.remote_status(status(2.0, ["Surface@9:5"]))
+    assert live.messages.states["GoTo@3:5"] == "ended"
+    live.remote_status("not json")
+    live.remote_status(json.dumps({"v": 2, "running": []}))  # another version: ignored
+    live.remote_status(status(3.0, [], "ok"))
+    assert live.messages.status == "ok" and live.messages.states["Surface@9:5"] == "ended"
+    jsonschema.validate(live.messages.status_message(3.0).data, SCHEMAS["mcl.MissionStatus"])
