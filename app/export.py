@@ -1,13 +1,15 @@
 """``mcl export``: a run log as an MCAP file for Foxglove (docs/MCAP.md).
 
-    mcl export RUN.jsonl --mcap OUT.mcap
+    mcl export RUN.jsonl [RUN2.jsonl ...] --mcap OUT.mcap [--no-images]
 
 The log is read and its digest chain (and signatures) verified first
 (petri/execution/runlog.py): a log that does not verify is refused (``RUN.jsonl:N: error:
 ...``, exit 2) and nothing is written. The MCAP file then holds what the log and the files
 the run wrote beside it hold: every record as a ``foxglove.Log`` with its MCL line, each task
 call's state, the camera's images (``RUN.images/``) with the true and estimated pose of each,
-and as attachments the mission, its task libraries and the mosaic. ``mcl run --mcap`` writes
+and as attachments the mission, its task libraries and the mosaic. Several logs (a fleet's
+runs) go into one file, each vehicle's topics, metadata and attachments under ``/NAME``, its
+log's file name without ``.jsonl``. ``mcl run --mcap`` writes
 the same file at the end of a run, with the simulated vehicle's whole track. Exit statuses
 (written, invalid input): docs/EXIT.md.
 """
@@ -24,7 +26,7 @@ from typing import Any
 from diagnostics import MclError, Source
 from mcl import parser, tasklib
 from mission.exits import Exit
-from mission.mcap_export import Track, Written, camera_index, write_mcap
+from mission.mcap_export import Run, Track, Written, camera_index, write_fleet
 from mosaic.images import images_folder
 from petri.execution.runlog import read_log, verify
 
@@ -39,7 +41,9 @@ MOSAIC_SUFFIXES = (".mosaic.png", ".coverage.png", ".mosaic.json")
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="mcl export", description="Write a run log, verified, "
                                 "as an MCAP file that Foxglove opens (docs/MCAP.md).")
-    p.add_argument("log", metavar="RUN.jsonl")
+    p.add_argument("logs", metavar="RUN.jsonl", nargs="+",
+                   help="a run log; several (a fleet's): each vehicle under /NAME, its log's "
+                        "file name without .jsonl")
     p.add_argument("--mcap", required=True, metavar="OUT.mcap", help="the MCAP file to write")
     p.add_argument("--no-images", action="store_true",
                    help="leave the camera's images out (a much smaller file)")
@@ -54,8 +58,12 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    written = export(Path(args.log), Path(args.mcap), images=not args.no_images)
-    print(f"{args.log}: exported to {written.line()}")
+    logs = [Path(log) for log in args.logs]
+    if len(logs) == 1:
+        written = export(logs[0], Path(args.mcap), images=not args.no_images)
+    else:
+        written = export_fleet(logs, Path(args.mcap), images=not args.no_images)
+    print(f"{', '.join(args.logs)}: exported to {written.line()}")
     return Exit.OK
 
 
@@ -63,13 +71,41 @@ def export(log: Path, out: Path, track: Track | None = None, images: bool = True
     """Verify the run log ``log`` (LogError if it does not) and write its MCAP file ``out``;
     ``track``: the vehicle's track when the caller has a better one than the camera's index
     (``mcl run`` of the simulated vehicle)."""
+    run = _run(log, images)
+    if track is not None:
+        run.track = track
+    check_output(str(out), "--mcap")
+    return _written(out, [run])
+
+
+def export_fleet(logs: list[Path], out: Path, images: bool = True) -> Written:
+    """A fleet's run logs (each verified) in one MCAP file, each vehicle's under ``/NAME``:
+    its log's file name without ``.jsonl``, which must differ from log to log."""
+    names = [log.stem for log in logs]
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise MclError(f"two run logs named {twice[0]!r}: each vehicle's namespace is its "
+                       "log's file name, so the names must differ", code="fleet")
+    runs = []
+    for log in logs:
+        run = _run(log, images)
+        run.namespace = log.stem
+        runs.append(run)
+    check_output(str(out), "--mcap")
+    return _written(out, runs)
+
+
+def _run(log: Path, images: bool) -> Run:
+    """A verified run log with what its run left beside it."""
     records = read_log(log)
     verify(records, log)
-    check_output(str(out), "--mcap")
     pictures, indexed = camera_index(images_folder(log))
+    return Run(records, indexed, pictures if images else [], attachments(records[0], log))
+
+
+def _written(out: Path, runs: list[Run]) -> Written:
     try:
-        return write_mcap(out, records, track if track is not None else indexed,
-                          pictures if images else [], attachments(records[0], log))
+        return write_fleet(out, runs)
     except OSError as exc:  # a full disk, no permission, an image removed meanwhile
         raise OutputError(str(out), "--mcap", f"{exc.strerror or exc}"
                           + (f" ({exc.filename})" if exc.filename else "")) from None

@@ -198,21 +198,44 @@ def metadata(records: list[dict[str, Any]]) -> dict[str, str]:
             "time": "mission time: 0 at the mission's start (log_time in ns)"}
 
 
+@dataclass
+class Run:
+    """One vehicle's run in an MCAP file: its verified log's ``records``, what else it left,
+    and its ``namespace`` (a fleet's: each vehicle's topics, metadata and attachments under
+    ``/NAME``; "" for a single run)."""
+
+    records: list[dict[str, Any]]
+    track: Track | None = None
+    pictures: list[Picture] = field(default_factory=list)
+    attachments: list[tuple[str, bytes]] = field(default_factory=list)
+    namespace: str = ""
+
+    def items(self) -> list[tuple[float, Message | Callable[[], Message]]]:
+        """Its messages (an image's read when written), each with its time."""
+        track = self.track
+        messages = [*LogMessages.of_log(self.records),
+                    *(pose_messages(track) if track is not None else ()),
+                    *(track_messages(track) if track is not None else ())]
+        out: list[tuple[float, Message | Callable[[], Message]]] = [(m.t, m) for m in messages]
+        out += [(p.t, image_message(p)) for p in self.pictures]
+        return out
+
+
 def write_mcap(out: Path, records: list[dict[str, Any]], track: Track | None = None,
                pictures: Iterable[Picture] = (), attachments: Iterable[tuple[str, bytes]] = ()
                ) -> Written:
     """Write the MCAP file ``out`` of a verified run log's ``records`` with what else the run
     left; ``attachments``: (name, bytes) of its files (a ``.png`` is an image, else text)."""
+    return write_fleet(out, [Run(records, track, list(pictures), list(attachments))])
+
+
+def write_fleet(out: Path, runs: list[Run]) -> Written:
+    """Write the MCAP file ``out`` of one or more runs (a fleet's, each in its namespace),
+    every message in time order (the runs' mission times side by side)."""
     from mcap.writer import Writer  # lazy, for start-up speed: only a run that asks for it
 
-    items: list[tuple[float, int, Message | Callable[[], Message]]] = []
-    messages: Iterable[Message] = [*LogMessages.of_log(records),
-                                   *(pose_messages(track) if track is not None else ()),
-                                   *(track_messages(track) if track is not None else ())]
-    for n, m in enumerate(messages):
-        items.append((m.t, n, m))
-    for n, picture in enumerate(pictures, start=len(items)):
-        items.append((picture.t, n, image_message(picture)))
+    items = [(t, n, run.namespace, item) for n, (run, (t, item)) in enumerate(
+        (run, pair) for run in runs for pair in run.items())]
     items.sort(key=lambda item: (item[0], item[1]))
     written = Written(out)
     with open(out, "wb") as stream:
@@ -221,18 +244,22 @@ def write_mcap(out: Path, records: list[dict[str, Any]], track: Track | None = N
         schemas = {name: writer.register_schema(name, "jsonschema", schema_text(name))
                    for name in SCHEMAS}
         channels: dict[str, int] = {}
-        for t, _, item in items:
+        for t, _, namespace, item in items:
             m = item if isinstance(item, Message) else item()
-            if m.topic not in channels:
-                channels[m.topic] = writer.register_channel(m.topic, "json", schemas[m.schema])
+            topic = f"/{namespace}{m.topic}" if namespace else m.topic
+            if topic not in channels:
+                channels[topic] = writer.register_channel(topic, "json", schemas[m.schema])
             ns = nanoseconds(t)
-            writer.add_message(channels[m.topic], ns, _json(m.data), ns)
-            written.topics[m.topic] = written.topics.get(m.topic, 0) + 1
-        writer.add_metadata("mcl.run", metadata(records))
-        for name, data in attachments:
-            media = "image/png" if name.endswith(".png") else "text/plain"
-            writer.add_attachment(0, 0, name, media, data)
-            written.attachments.append(name)
+            writer.add_message(channels[topic], ns, _json(m.data), ns)
+            written.topics[topic] = written.topics.get(topic, 0) + 1
+        for run in runs:
+            prefix = f"{run.namespace}/" if run.namespace else ""
+            writer.add_metadata(f"mcl.run/{run.namespace}" if run.namespace else "mcl.run",
+                                metadata(run.records))
+            for name, data in run.attachments:
+                media = "image/png" if name.endswith(".png") else "text/plain"
+                writer.add_attachment(0, 0, prefix + name, media, data)
+                written.attachments.append(prefix + name)
         writer.finish()  # type: ignore[no-untyped-call]
     return written
 

@@ -172,3 +172,36 @@ def test_export_bad_input_is_one_line_and_exit_2(short_run: Any, tmp_path: Path,
                  cwd=tmp_path)
     assert result.returncode == 2, result.stdout + result.stderr
     assert said in result.stderr and "Traceback" not in result.stderr
+
+
+def test_a_fleet_s_logs_go_in_one_file_each_vehicle_in_its_namespace(short_run: Any,
+                                                                     tmp_path: Path) -> None:
+    log, _, _ = short_run
+    other = tmp_path / "auv2.jsonl"  # the same run again, as a second vehicle's (no images)
+    other.write_bytes(log.read_bytes())
+    out = tmp_path / "fleet.mcap"
+    result = cli("mcl", "export", str(log), str(other), "--mcap", str(out))
+    assert result.returncode == 0, result.stderr
+    held = read_mcap(out)
+    topics = Counter(c.topic for _, c, _, _ in held["messages"])
+    records = read_log(log)
+    assert topics["/dam/mission/log"] == topics["/auv2/mission/log"] == len(records) - 1
+    assert topics["/dam/camera/image"] > 0 and "/auv2/camera/image" not in topics
+    assert not [t for t in topics if not t.startswith(("/dam/", "/auv2/"))]
+    for schema, _, _, data in held["messages"]:
+        jsonschema.validate(data, json.loads(schema.data))
+    times = [m.log_time for _, _, m, _ in held["messages"]]
+    assert times == sorted(times)
+    for name in ("dam", "auv2"):
+        assert held["metadata"][f"mcl.run/{name}"]["final_digest"] == records[-1]["digest"]
+    assert {"dam/dam_inspection.mcl", "auv2/dam_inspection.mcl"} <= set(held["attachments"])
+
+
+def test_a_fleet_s_logs_must_have_different_names(short_run: Any, tmp_path: Path) -> None:
+    log, _, _ = short_run
+    (tmp_path / "b").mkdir()
+    twin = tmp_path / "b" / log.name
+    twin.write_bytes(log.read_bytes())
+    result = cli("mcl", "export", str(log), str(twin), "--mcap", str(tmp_path / "x.mcap"))
+    assert result.returncode == 2 and "two run logs named 'dam'" in result.stderr
+    assert "Traceback" not in result.stderr and not (tmp_path / "x.mcap").exists()
