@@ -74,12 +74,14 @@ class LiveView:
         self.messages = LogMessages(header, calls)
         self.sent = 0  # poses of the followed survey published so far
         self.drawn = 0  # the last pose of the track published so far
+        self.walls = 0  # the wall tracker's samples published so far
         self.stopped = threading.Event()
         self.follower: threading.Thread | None = None
         topics = {"/mission/log": "foxglove.Log", "/mission/status": "mcl.MissionStatus",
                   "/vehicle/pose/true": "foxglove.PoseInFrame",
                   "/vehicle/pose/estimated": "foxglove.PoseInFrame",
-                  "/navigator": "mcl.Navigation", "/vehicle/track": "foxglove.SceneUpdate"}
+                  "/navigator": "mcl.Navigation", "/vehicle/track": "foxglove.SceneUpdate",
+                  "/wall_tracker": "mcl.WallTracker"}
         for topic, schema in topics.items():
             self.channels[topic] = foxglove.Channel(topic, schema=SCHEMAS[schema])
 
@@ -117,8 +119,9 @@ class LiveView:
         """Publish the poses the survey recorded since the last look, and the track in
         segments of :data:`SEGMENT` poses (``last``: what is left of it too)."""
         track = track_of_survey(survey)
-        self.poses(Track(track.truth[self.sent:], track.estimate[self.sent:]))
-        self.sent = len(track.truth)
+        self.poses(Track(track.truth[self.sent:], track.estimate[self.sent:],
+                         wall=track.wall[self.walls:]))
+        self.sent, self.walls = len(track.truth), len(track.wall)
         while self.sent - 1 - self.drawn >= (1 if last else SEGMENT):
             end = min(self.drawn + SEGMENT, self.sent - 1)
             part = Track(track.truth[self.drawn:end + 1], track.estimate[self.drawn:end + 1],

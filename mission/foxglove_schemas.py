@@ -6,9 +6,10 @@ its well-known types: ``foxglove.Log``, ``foxglove.PoseInFrame``, ``foxglove.Sce
 definitions (the foxglove-sdk repository, ``schemas/jsonschema/``, as of its 2025 schemas):
 written out here as JSON Schema for the fields a run fills, so that a test can validate every
 message against the schema it is recorded under. Fields Foxglove adds and a run never fills
-(``message_id``, ``lineage``) are left out; a JSON Schema allows them anyway. The two schemas
+(``message_id``, ``lineage``) are left out; a JSON Schema allows them anyway. The schemas
 named ``mcl.*`` are ours: the mission's status (each task call's state, for Foxglove's State
-Transitions panel) and the navigator's estimate against the truth (for its Plot panel).
+Transitions panel), the navigator's estimate and the sonar wall tracker's against the truth
+(for its Plot panel).
 """
 
 from __future__ import annotations
@@ -107,8 +108,18 @@ NAVIGATION = _object("mcl.Navigation", {
                          "description": "m, the navigator's horizontal error"},
     "error_depth": {"type": "number", "description": "m, estimated depth minus true depth"}})
 
+WALL_TRACKER = _object("mcl.WallTracker", {
+    "timestamp": TIME,
+    "distance": {"type": "number", "description": "m, the sonar wall tracker's distance"},
+    "heading": {"type": "number", "description": "rad, its heading relative to the wall"},
+    "distance_true": {"type": "number"}, "heading_true": {"type": "number"},
+    "distance_error": {"type": "number", "description": "m, tracked minus true"},
+    "heading_error": {"type": "number", "description": "rad, tracked minus true"}},
+    required=["timestamp", "distance", "heading"])
+
 SCHEMAS: dict[str, Schema] = {s["title"]: s for s in (
-    LOG, POSE_IN_FRAME, SCENE_UPDATE, COMPRESSED_IMAGE, MISSION_STATUS, NAVIGATION)}
+    LOG, POSE_IN_FRAME, SCENE_UPDATE, COMPRESSED_IMAGE, MISSION_STATUS, NAVIGATION,
+    WALL_TRACKER)}
 
 
 def schema_text(name: str) -> bytes:

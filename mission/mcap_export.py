@@ -39,14 +39,27 @@ class Pose:
     yaw: float
 
 
+@dataclass(frozen=True)
+class WallSample:
+    """The sonar wall tracker at mission time ``t``: distance (m) and heading relative to the
+    wall (rad), and the true ones when known."""
+
+    t: float
+    distance: float
+    heading: float
+    distance_true: float | None = None
+    heading_true: float | None = None
+
+
 @dataclass
 class Track:
-    """The vehicle's true and estimated poses (pairs at the same instants) and USBL fixes
-    (x, y, z, accepted)."""
+    """The vehicle's true and estimated poses (pairs at the same instants), USBL fixes
+    (x, y, z, accepted) and the wall tracker's samples."""
 
     truth: list[Pose] = field(default_factory=list)
     estimate: list[Pose] = field(default_factory=list)
     fixes: list[tuple[float, float, float, bool]] = field(default_factory=list)
+    wall: list[WallSample] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -81,6 +94,8 @@ def track_of_survey(survey: Any) -> Track:
         yaw, eyaw = headings[i] if i < len(headings) else (0.0, 0.0)
         track.truth.append(Pose(float(t), float(x), float(y), float(z), float(yaw)))
         track.estimate.append(Pose(float(t), float(ex), float(ey), float(ez), float(eyaw)))
+    track.wall = [WallSample(float(t), float(d), float(h), float(dt), float(ht))
+                  for t, d, dt, h, ht in getattr(survey, "wall", [])]
     return track
 
 
@@ -92,6 +107,11 @@ def camera_index(folder: Path) -> tuple[list[Picture], Track]:
     if not index.is_file():
         return [], Track()
     pictures, track = [], Track()
+    try:
+        camera = json.loads((folder / "camera.json").read_text("utf-8"))
+        flat = float(camera["wall"]["curvature"]) == 0.0
+    except (OSError, ValueError, KeyError, TypeError):
+        flat = False
     with index.open(newline="", encoding="utf-8") as f:
         for row in csv.DictReader(f):
             t = float(row["t"])
@@ -99,7 +119,24 @@ def camera_index(folder: Path) -> tuple[list[Picture], Track]:
             track.truth.append(Pose(t, *(float(row[k]) for k in ("x", "y", "z", "psi"))))
             track.estimate.append(Pose(t, *(float(row[k]) for k in
                                             ("nav_x", "nav_y", "nav_z", "nav_psi"))))
+            sample = wall_sample(row, flat)
+            if sample is not None:
+                track.wall.append(sample)
     return pictures, track
+
+
+def wall_sample(row: dict[str, str], flat: bool) -> WallSample | None:
+    """The wall tracker's sample of an ``index.csv`` row (None without one); the truth too
+    for a flat wall (the plane x = 0: the distance is -x, the relative heading the yaw)."""
+    try:
+        d, h = float(row["wall_distance"]), float(row["wall_heading"])
+    except (KeyError, ValueError):
+        return None
+    if not (math.isfinite(d) and math.isfinite(h)):
+        return None
+    if not flat:
+        return WallSample(float(row["t"]), d, h)
+    return WallSample(float(row["t"]), d, h, -float(row["x"]), float(row["psi"]))
 
 
 def quaternion(yaw: float) -> dict[str, float]:
@@ -112,7 +149,8 @@ def pose_of(p: Pose) -> dict[str, Any]:
 
 
 def pose_messages(track: Track) -> Iterable[Message]:
-    """The true and estimated poses, and the navigator's error as numbers to plot."""
+    """The true and estimated poses, the navigator's error and the wall tracker's estimate
+    and error, as numbers to plot."""
     for who, poses in (("true", track.truth), ("estimated", track.estimate)):
         for p in poses:
             yield Message(p.t, f"/vehicle/pose/{who}", "foxglove.PoseInFrame",
@@ -123,6 +161,13 @@ def pose_messages(track: Track) -> Iterable[Message]:
             "true_yaw": p.yaw, "estimated_x": e.x, "estimated_y": e.y, "estimated_z": e.z,
             "estimated_yaw": e.yaw, "error_horizontal": math.hypot(e.x - p.x, e.y - p.y),
             "error_depth": e.z - p.z})
+    for w in track.wall:
+        yield Message(w.t, "/wall_tracker", "mcl.WallTracker", {
+            "timestamp": stamp(w.t), "distance": w.distance, "heading": w.heading,
+            **({"distance_true": w.distance_true, "distance_error": w.distance - w.distance_true}
+               if w.distance_true is not None else {}),
+            **({"heading_true": w.heading_true, "heading_error": w.heading - w.heading_true}
+               if w.heading_true is not None else {})})
 
 
 def track_messages(track: Track, first: int = 0) -> Iterable[Message]:

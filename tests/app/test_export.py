@@ -205,3 +205,19 @@ def test_a_fleet_s_logs_must_have_different_names(short_run: Any, tmp_path: Path
     result = cli("mcl", "export", str(log), str(twin), "--mcap", str(tmp_path / "x.mcap"))
     assert result.returncode == 2 and "two run logs named 'dam'" in result.stderr
     assert "Traceback" not in result.stderr and not (tmp_path / "x.mcap").exists()
+
+
+@pytest.mark.parametrize("source", ["run", "export"])
+def test_the_wall_tracker_s_estimate_and_error_are_numbers_to_plot(
+        short_run: Any, tmp_path: Path, source: str) -> None:
+    log, out, _ = short_run
+    if source == "export":  # from the camera's index beside the log: one sample per image
+        out = tmp_path / "again.mcap"
+        assert cli("mcl", "export", str(log), "--mcap", str(out), "--no-images"
+                   ).returncode == 0
+    samples = [d for _, c, _, d in read_mcap(out)["messages"] if c.topic == "/wall_tracker"]
+    assert len(samples) >= 8
+    for s in samples:  # the tracker against the truth: within centimetres and degrees
+        assert s["distance_error"] == pytest.approx(s["distance"] - s["distance_true"])
+        assert abs(s["distance_error"]) < 0.1 and abs(s["heading_error"]) < 0.1
+        assert 1.0 < s["distance_true"] < 2.0  # d = 1.5 m from the wall
