@@ -6,7 +6,7 @@
     mcl vehicle --zenoh ENDPOINT | --mavlink URL ...   app/vehicle.py
     mcl monitor --zenoh ENDPOINT ...                   app/monitor.py
     mcl mosaic RUN.jsonl ...                           app/mosaic.py
-    mcl export RUN.jsonl --mcap OUT.mcap               app/export.py (docs/MCAP.md)
+    mcl export RUN.jsonl... --mcap OUT.mcap            app/export.py (docs/MCAP.md)
     mcl lsp                                            app/lsp/server.py (for editors)
     mcl fmt MISSION.mcl... [--check | --diff]          app/fmt.py
 
@@ -35,7 +35,7 @@ COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
     "mosaic": ("app.mosaic", "make the photomosaic and coverage map of a run's images: "
                "mcl mosaic RUN.jsonl [--scale MM_PER_PX]"),
     "export": ("app.export", "write a run log, verified, as an MCAP file for Foxglove: "
-               "mcl export RUN.jsonl --mcap OUT.mcap [--no-images] (docs/MCAP.md)"),
+               "mcl export RUN.jsonl... --mcap OUT.mcap [--no-images] (docs/MCAP.md)"),
     "replay": ("app.replay", "check that a run log is a legal run of the mission"),
     "lsp": ("app.lsp.server", "the MCL language server for editors, over standard input and "
             "output: mcl lsp (docs/EDITORS.md)"),

@@ -19,7 +19,8 @@ second; if none answers, the run is refused before the mission starts ("no vehic
 at ADDRESS within N s"), exit 6. A stop from outside (a signal, the time limit, an uncaught
 ``Link.lost``) runs the mission's ``ON STOP`` handler, if it has one, for at most its proved
 bound; a second signal halts it. The summary says how it went (``stop handler (ON STOP) ended
-ok at 131.2 s, started at 102.0 s (proved bound 300 s)``).
+ok at 131.2 s, started at 102.0 s (proved bound 300 s)``). ``--mcap`` and ``--foxglove``, the
+run for Foxglove written at its end and served live: ``app/foxglove.py`` (docs/MCAP.md).
 """
 
 from __future__ import annotations
@@ -35,7 +36,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from diagnostics import MclError
 from mcl import values
 from mcl.api import Compiled, compile_file, parse_params
 from mission.exits import Exit
@@ -46,13 +46,12 @@ from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
 
-from app import arguments, vehicles
+from app import arguments, foxglove, vehicles
 from app.guard import guarded
 from app.mclc import OutputError, check_output
 from app.safe_exit import Output, ReportCut, Stops
 
 if TYPE_CHECKING:
-    from mission.foxglove_live import LiveView
     from vehicle.control.stack import IctineuStack
 
 STOP_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
@@ -86,7 +85,7 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
                    help="also write the run as an MCAP file for Foxglove, at its end: the "
                         "log, each task's state, the vehicle's poses and track, the camera's "
                         "images (docs/MCAP.md; 'mcl export' makes one from a run log)")
-    r.add_argument("--foxglove", metavar="HOST:PORT", default=None, type=_address,
+    r.add_argument("--foxglove", metavar="HOST:PORT", default=None, type=foxglove.address,
                    help="serve the run live to Foxglove (its WebSocket protocol, "
                         "foxglove.sdk.v1): the log, each task's state, the vehicle's poses; "
                         "needs the optional extra mcl-auv[foxglove] (docs/MCAP.md)")
@@ -124,16 +123,6 @@ def _seconds(text: str) -> float:
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"{text!r} is not a positive number of seconds")
     return value
-
-
-def _address(text: str) -> tuple[str, int]:
-    """--foxglove: HOST:PORT."""
-    from mission.foxglove_live import address  # here for start-up speed: only --foxglove
-
-    try:
-        return address(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _check_log(path: Path) -> None:
@@ -193,7 +182,7 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
               "vehicle": args.vehicle, "seed": args.seed, "inject": args.inject}
     clock = MissionClock()
     out = Output()
-    live = _live(args.foxglove, compiled, chosen, header)
+    live = foxglove.serve(args.foxglove, compiled, chosen.stack, header)
     stops = Stops(STOP_SIGNALS)
     try:
         return _run_and_report(args, compiled, chosen, log_path, header, clock, out, stops,
@@ -202,21 +191,6 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
         stops.restore()
         if live is not None:
             live.close(chosen.stack.survey if chosen.stack is not None else None)
-
-
-def _live(where: tuple[str, int] | None, compiled: Compiled, chosen: Vehicle,
-          header: dict[str, Any]) -> LiveView | None:
-    """The live view of ``--foxglove`` (None without it), serving before the run starts."""
-    if where is None:
-        return None
-    from mission.foxglove_live import LiveView, task_calls  # start-up speed: only --foxglove
-
-    live = LiveView(*where, {**header, "mission": compiled.name}, task_calls(compiled.net))
-    print(f"mcl run: serving Foxglove at ws://{where[0]}:{live.port} (foxglove.sdk.v1)",
-          file=sys.stderr, flush=True)
-    if chosen.stack is not None:
-        live.follow(chosen.stack.survey)
-    return live
 
 
 def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicle,
@@ -244,7 +218,7 @@ def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicl
     try:
         _summary(args.mission, result, chosen, out, log_path)
         if args.mcap is not None:
-            _write_mcap(Path(args.mcap), chosen, log_path, out)
+            foxglove.write_at_end(Path(args.mcap), chosen.stack, log_path, out.say, _warn)
     except ReportCut as cut:
         _warn(cut.line())
     except Exception as exc:  # noqa: BLE001 - the run has ended: its status stands
@@ -253,21 +227,6 @@ def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicl
         _warn(f"mcl run: the report after the run failed: {type(exc).__name__}: {exc} "
               "(the run log's end record stands)")
     return result.exit
-
-
-def _write_mcap(path: Path, chosen: Vehicle, log_path: Path, out: Output) -> None:
-    """The run as an MCAP file (``--mcap``), from its log once written, with the simulated
-    vehicle's whole track; why not, on one line, without changing the exit status."""
-    from app.export import export  # here for start-up speed: only a run that asks for it
-    from mission.mcap_export import track_of_survey
-
-    track = track_of_survey(chosen.stack.survey) if chosen.stack is not None else None
-    try:
-        written = export(log_path, path, track)
-    except MclError as exc:
-        _warn(f"mcl run: --mcap {path}: not written: {exc.format().splitlines()[0]}")
-        return
-    out.say(f"  mcap: {written.line()}")
 
 
 def _beside(log_path: Path) -> bool:

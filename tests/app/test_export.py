@@ -221,3 +221,11 @@ def test_the_wall_tracker_s_estimate_and_error_are_numbers_to_plot(
         assert s["distance_error"] == pytest.approx(s["distance"] - s["distance_true"])
         assert abs(s["distance_error"]) < 0.1 and abs(s["heading_error"]) < 0.1
         assert 1.0 < s["distance_true"] < 2.0  # d = 1.5 m from the wall
+
+
+def test_run_refuses_an_mcap_it_could_not_write_before_the_start(tmp_path: Path) -> None:
+    log = tmp_path / "never.jsonl"
+    result = cli("mcl", "run", DAM, "--log", str(log), "--mcap", str(tmp_path / "no" / "x.mcap"))
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "--mcap" in result.stderr and "no folder" in result.stderr
+    assert "Traceback" not in result.stderr and not log.exists()  # the mission never started
