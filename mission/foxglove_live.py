@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 import threading
+import time
 from typing import Any
 
 from diagnostics import MclError
@@ -26,6 +27,7 @@ from mission.mcap_export import SEGMENT, Pose, Track, pose_messages, track_messa
 from mission.mcap_messages import LogMessages, nanoseconds, source_order
 
 FOLLOW_EVERY = 0.2  # wall s between two looks at the survey's new poses
+LAST_WORDS = 0.2  # wall s for the last messages (the mission's end) to reach the clients
 
 
 def address(text: str) -> tuple[str, int]:
@@ -165,7 +167,8 @@ class LiveView:
                           if m.topic == "/vehicle/pose/estimated"])
 
     def close(self, survey: Any = None) -> None:
-        """The last poses, then the server stopped."""
+        """The last poses and messages, a moment for them to leave, then the server
+        stopped."""
         self.stopped.set()
         if self.follower is not None:
             self.follower.join()
@@ -173,4 +176,5 @@ class LiveView:
             self.catch_up(survey, last=True)
         with self.lock:
             self.publish(self.messages.flush())
+        time.sleep(LAST_WORDS)
         self.server.stop()
