@@ -7,6 +7,7 @@
     mcl monitor --zenoh ENDPOINT ...                   app/monitor.py
     mcl mosaic RUN.jsonl ...                           app/mosaic.py
     mcl view RUN.jsonl MISSION.mcl                     app/view/command.py (in a browser)
+    mcl export RUN.jsonl... --mcap OUT.mcap            app/export.py (docs/MCAP.md)
     mcl lsp                                            app/lsp/server.py (for editors)
     mcl fmt MISSION.mcl... [--check | --diff]          app/fmt.py
 
@@ -32,12 +33,14 @@ COMMANDS = {  # subcommand: (its module, its line in 'mcl --help')
     "vehicle": ("app.vehicle", "serve the simulated vehicle over Zenoh or MAVLink: mcl vehicle "
                 "--zenoh ENDPOINT | --mavlink URL [--speed X] [--seed N] [--inject FAULT@S]"),
     "monitor": ("app.monitor", "watch a mission and its vehicle over Zenoh: mcl monitor "
-                "--zenoh ENDPOINT [--until-end]"),
+                "--zenoh ENDPOINT [--until-end] [--foxglove HOST:PORT]"),
     "mosaic": ("app.mosaic", "make the photomosaic and coverage map of a run's images: "
                "mcl mosaic RUN.jsonl [--scale MM_PER_PX]"),
     "view": ("app.view.command", "show a run in a browser: the mission's tree with each "
              "block's state at any instant, the timeline, the track, the bounds, the mosaic: "
              "mcl view RUN.jsonl MISSION.mcl | --zenoh ENDPOINT MISSION.mcl [--port N]"),
+    "export": ("app.export", "write a run log, verified, as an MCAP file for Foxglove: "
+               "mcl export RUN.jsonl... --mcap OUT.mcap [--no-images] (docs/MCAP.md)"),
     "replay": ("app.replay", "check that a run log is a legal run of the mission"),
     "lsp": ("app.lsp.server", "the MCL language server for editors, over standard input and "
             "output: mcl lsp (docs/EDITORS.md)"),

@@ -24,10 +24,14 @@ import sys
 import threading
 import time
 from collections.abc import Sequence
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
+from diagnostics import MclError
 from mission.exits import Exit
 from app import arguments
+
+if TYPE_CHECKING:
+    from mission.foxglove_live import LiveView
 
 REFRESH = 0.25  # wall s between redraws
 
@@ -44,8 +48,11 @@ class View:
         self.vehicle_alive: bool | None = None  # None: not seen yet
         self.players: set[str] = set()
         self.changed = threading.Event()
+        self.forward: Any = None  # a live view (--foxglove) told what is heard, or None
 
     def on_status(self, payload: bytes) -> None:
+        if self.forward is not None:
+            self.forward.remote_status(payload)
         try:
             status = json.loads(payload)
             if not isinstance(status, dict) or status.get("v") != 1:
@@ -59,6 +66,8 @@ class View:
         self.changed.set()
 
     def on_telemetry(self, stream: str, payload: bytes) -> None:
+        if self.forward is not None and stream == "navigator":
+            self.forward.remote_pose(payload)
         try:
             data = json.loads(payload)
         except ValueError:
@@ -260,6 +269,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="one line per change instead of a screen (default when not a terminal)")
     p.add_argument("--scouting", action="store_true",
                    help="also find the vehicle by Zenoh's multicast scouting (off by default)")
+    p.add_argument("--foxglove", metavar="HOST:PORT", default=None,
+                   help="also serve what the monitor hears to Foxglove (its WebSocket "
+                        "protocol, foxglove.sdk.v1): the mission's status and the navigator's "
+                        "pose; needs the optional extra mcl-auv[foxglove] (docs/MCAP.md)")
     zenoh_options.add_arguments(p, "observer")
     args = p.parse_args(argv)
     try:
@@ -270,11 +283,43 @@ def main(argv: Sequence[str] | None = None) -> int:
     if problem:  # one line naming the option
         print(problem, file=sys.stderr)
         return Exit.INVALID
+    live = _live(args.foxglove)
+    if isinstance(live, str):
+        print(live, file=sys.stderr)
+        return Exit.INVALID
+    try:
+        return _monitor(args, security, live)
+    finally:
+        if live is not None:
+            live.close()
+
+
+def _live(where: str | None) -> LiveView | str | None:
+    """The live view of ``--foxglove`` (None without it), or why not, on one line."""
+    if where is None:
+        return None
+    from mission.foxglove_live import LiveView, address  # start-up speed: only --foxglove
+
+    try:
+        live = LiveView(*address(where), {}, [])
+    except ValueError as exc:
+        return f"mcl monitor: --foxglove: {exc}"
+    except MclError as exc:
+        return f"mcl monitor: {exc}"
+    print(f"mcl monitor: serving Foxglove at ws://{where.rpartition(':')[0]}:{live.port} "
+          "(foxglove.sdk.v1)", file=sys.stderr, flush=True)
+    return live
+
+
+def _monitor(args: argparse.Namespace, security: Any, live: LiveView | None) -> int:
+    """Watch over Zenoh until the end, the timeout or a signal."""
     import zenoh
 
     from aal.zenoh import close_session, keys, payload_text, zenoh_config
 
     view = View(args.name, args.zenoh)
+    if live is not None:
+        view.forward = live
     k = keys(args.name)
     stop = threading.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):

@@ -19,7 +19,8 @@ second; if none answers, the run is refused before the mission starts ("no vehic
 at ADDRESS within N s"), exit 6. A stop from outside (a signal, the time limit, an uncaught
 ``Link.lost``) runs the mission's ``ON STOP`` handler, if it has one, for at most its proved
 bound; a second signal halts it. The summary says how it went (``stop handler (ON STOP) ended
-ok at 131.2 s, started at 102.0 s (proved bound 300 s)``).
+ok at 131.2 s, started at 102.0 s (proved bound 300 s)``). ``--mcap`` and ``--foxglove``, the
+run for Foxglove written at its end and served live: ``app/foxglove.py`` (docs/MCAP.md).
 """
 
 from __future__ import annotations
@@ -45,9 +46,9 @@ from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
 
-from app import arguments, vehicles
+from app import arguments, foxglove, vehicles
 from app.guard import guarded
-from app.mclc import OutputError
+from app.mclc import OutputError, check_output
 from app.safe_exit import Output, ReportCut, Stops
 
 if TYPE_CHECKING:
@@ -80,6 +81,14 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
                    help="sign every line of the run log with this Ed25519 key (a PEM file: "
                         "openssl genpkey -algorithm ed25519 -out run.key); 'mcl replay --key' "
                         "then refuses a log edited and re-signed without it")
+    r.add_argument("--mcap", metavar="FILE", default=None,
+                   help="also write the run as an MCAP file for Foxglove, at its end: the "
+                        "log, each task's state, the vehicle's poses and track, the camera's "
+                        "images (docs/MCAP.md; 'mcl export' makes one from a run log)")
+    r.add_argument("--foxglove", metavar="HOST:PORT", default=None, type=foxglove.address,
+                   help="serve the run live to Foxglove (its WebSocket protocol, "
+                        "foxglove.sdk.v1): the log, each task's state, the vehicle's poses; "
+                        "needs the optional extra mcl-auv[foxglove] (docs/MCAP.md)")
     r.add_argument("--quiet", action="store_true", help="no timeline, only the final status")
     r.add_argument("--no-images", action="store_true",
                    help="simulated vehicle: do not render and keep the camera's images, so no "
@@ -153,6 +162,8 @@ def _param_texts(overrides: dict[str, Any]) -> dict[str, str]:
 
 def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
     _check_log(Path(args.log) if args.log else Path("out/runs/MISSION.jsonl"))
+    if args.mcap is not None:
+        check_output(args.mcap, "--mcap")
     signer = Signer.load(args.log_key) if args.log_key is not None else None
     overrides = parse_params(args.param, args.params)
     compiled = compile_file(args.mission, args.tasks or None, overrides, require_values=True)
@@ -171,24 +182,29 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
               "vehicle": args.vehicle, "seed": args.seed, "inject": args.inject}
     clock = MissionClock()
     out = Output()
+    live = foxglove.serve(args.foxglove, compiled, chosen.stack, header)
     stops = Stops(STOP_SIGNALS)
     try:
         return _run_and_report(args, compiled, chosen, log_path, header, clock, out, stops,
-                               signer)
+                               signer, [live] if live is not None else [])
     finally:
         stops.restore()
+        if live is not None:
+            live.close(chosen.stack.survey if chosen.stack is not None else None)
 
 
 def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicle,
                     log_path: Path, header: dict[str, Any], clock: MissionClock, out: Output,
-                    stops: Stops, signer: Signer | None) -> int:
+                    stops: Stops, signer: Signer | None,
+                    watchers: list[Callable[[Any], None]]) -> int:
     """Run the mission, then report on it; what goes wrong in the report (a full disk, its
     folder removed, a signal) never changes the exit status the end record says."""
     try:
         result = run_mission(
             compiled, chosen, log=log_path, header=header, max_time=args.max_time,
             stop=stops.request, verify=not args.no_verify, clock=clock, end_note=out.note,
-            observers=[] if args.quiet else [_Timeline(compiled, clock, out)], during=stops,
+            observers=[*watchers, *([] if args.quiet else [_Timeline(compiled, clock, out)])],
+            during=stops,
             waiting=_waiting, signer=signer)
     except NoVehicle as exc:  # refused before the start: nothing was sent
         print(f"mcl run: {exc}\n  run log: {log_path}", file=sys.stderr)
@@ -201,6 +217,8 @@ def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicl
         _stand_in(log_path, result)
     try:
         _summary(args.mission, result, chosen, out, log_path)
+        if args.mcap is not None:
+            foxglove.write_at_end(Path(args.mcap), chosen.stack, log_path, out.say, _warn)
     except ReportCut as cut:
         _warn(cut.line())
     except Exception as exc:  # noqa: BLE001 - the run has ended: its status stands

@@ -26,6 +26,9 @@ class Survey:
     env: Environment
     truth: list[tuple[float, float, float, float]] = field(default_factory=list)  # t, x, y, z
     estimate: list[tuple[float, float, float]] = field(default_factory=list)  # x, y, z
+    headings: list[tuple[float, float]] = field(default_factory=list)  # true, estimated yaw
+    wall: list[tuple[float, float, float, float, float]] = field(
+        default_factory=list)  # t, tracked and true distance (m), tracked and true heading (rad)
     nav_errors: list[float] = field(default_factory=list)  # horizontal, m
     wall_dist_errors: list[float] = field(default_factory=list)  # during the survey, m
     wall_head_errors: list[float] = field(default_factory=list)  # during the survey, rad
@@ -45,6 +48,7 @@ class Survey:
             self.truth.append((t, s.x, s.y, s.z))
             ex, ey, ez = (float(navigator.x[i]) for i in range(3))
             self.estimate.append((ex, ey, ez))
+            self.headings.append((s.psi, float(navigator.x[3])))
         ex, ey = float(navigator.x[0]), float(navigator.x[1])
         self.nav_errors.append(math.hypot(ex - s.x, ey - s.y))
         if surveying and tracker is not None:
@@ -53,6 +57,9 @@ class Survey:
             true_h = wrap_angle(s.psi - math.atan2(ny, nx))
             self.wall_dist_errors.append(tracker.distance_to_wall().value - true_d)
             self.wall_head_errors.append(wrap_angle(tracker.relative_heading().value - true_h))
+            if self._every % 4 == 1:  # the tracker against the truth, 5 a second
+                self.wall.append((t, tracker.distance_to_wall().value, true_d,
+                                  tracker.relative_heading().value, true_h))
 
     def usbl(self, fix: UsblFix, accepted: bool) -> None:
         x, y, z = (float(v) for v in fix.position)

@@ -1,0 +1,166 @@
+"""``mcl export``: a run log as an MCAP file for Foxglove (docs/MCAP.md).
+
+    mcl export RUN.jsonl [RUN2.jsonl ...] --mcap OUT.mcap [--no-images]
+
+The log is read and its digest chain (and signatures) verified first
+(petri/execution/runlog.py): a log that does not verify is refused (``RUN.jsonl:N: error:
+...``, exit 2) and nothing is written. The MCAP file then holds what the log and the files
+the run wrote beside it hold: every record as a ``foxglove.Log`` with its MCL line, each task
+call's state, the camera's images (``RUN.images/``) with the true and estimated pose of each,
+and as attachments the mission, its task libraries and the mosaic. Several logs (a fleet's
+runs) go into one file, each vehicle's topics, metadata and attachments under ``/NAME``, its
+log's file name without ``.jsonl``. ``mcl run --mcap`` writes
+the same file at the end of a run, with the simulated vehicle's whole track. Exit statuses
+(written, invalid input): docs/EXIT.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import stat
+import sys
+from pathlib import Path
+from typing import Any
+
+from diagnostics import MclError, Source
+from mcl import parser, tasklib
+from mission.exits import Exit
+from mission.mcap_export import Run, Track, Written, camera_index, write_fleet
+from mosaic.images import images_folder
+from petri.execution.runlog import read_log, verify
+
+from app.guard import guarded
+from app.mclc import OutputError, check_output
+
+MAX_ATTACHED = 4 * 1024 * 1024  # bytes: the largest mission or task library attached
+MAX_MOSAIC = 64 * 1024 * 1024  # bytes: the largest mosaic attached (the dam's: 5.5 MB)
+MOSAIC_SUFFIXES = (".mosaic.png", ".coverage.png", ".mosaic.json")
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="mcl export", description="Write a run log, verified, "
+                                "as an MCAP file that Foxglove opens (docs/MCAP.md).")
+    p.add_argument("logs", metavar="RUN.jsonl", nargs="+",
+                   help="a run log; several (a fleet's): each vehicle under /NAME, its log's "
+                        "file name without .jsonl")
+    p.add_argument("--mcap", required=True, metavar="OUT.mcap", help="the MCAP file to write")
+    p.add_argument("--no-images", action="store_true",
+                   help="leave the camera's images out (a much smaller file)")
+    p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``mcl export ARGS`` (``argv``: what follows ``export``)."""
+    args = _parser().parse_args(sys.argv[1:] if argv is None else argv)
+    return guarded("export", args.debug, lambda: _export(args))
+
+
+def _export(args: argparse.Namespace) -> int:
+    logs = [Path(log) for log in args.logs]
+    if len(logs) == 1:
+        written = export(logs[0], Path(args.mcap), images=not args.no_images)
+    else:
+        written = export_fleet(logs, Path(args.mcap), images=not args.no_images)
+    print(f"{', '.join(args.logs)}: exported to {written.line()}")
+    return Exit.OK
+
+
+def export(log: Path, out: Path, track: Track | None = None, images: bool = True) -> Written:
+    """Verify the run log ``log`` (LogError if it does not) and write its MCAP file ``out``;
+    ``track``: the vehicle's track when the caller has a better one than the camera's index
+    (``mcl run`` of the simulated vehicle)."""
+    run = _run(log, images)
+    if track is not None:
+        run.track = track
+    check_output(str(out), "--mcap")
+    return _written(out, [run])
+
+
+def export_fleet(logs: list[Path], out: Path, images: bool = True) -> Written:
+    """A fleet's run logs (each verified) in one MCAP file, each vehicle's under ``/NAME``:
+    its log's file name without ``.jsonl``, which must differ from log to log."""
+    names = [log.stem for log in logs]
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise MclError(f"two run logs named {twice[0]!r}: each vehicle's namespace is its "
+                       "log's file name, so the names must differ", code="fleet")
+    runs = []
+    for log in logs:
+        run = _run(log, images)
+        run.namespace = log.stem
+        runs.append(run)
+    check_output(str(out), "--mcap")
+    return _written(out, runs)
+
+
+def _run(log: Path, images: bool) -> Run:
+    """A verified run log with what its run left beside it."""
+    records = read_log(log)
+    verify(records, log)
+    pictures, indexed = camera_index(images_folder(log))
+    return Run(records, indexed, pictures if images else [], attachments(records[0], log))
+
+
+def _written(out: Path, runs: list[Run]) -> Written:
+    try:
+        return write_fleet(out, runs)
+    except OSError as exc:  # a full disk, no permission, an image removed meanwhile
+        raise OutputError(str(out), "--mcap", f"{exc.strerror or exc}"
+                          + (f" ({exc.filename})" if exc.filename else "")) from None
+
+
+def attachments(header: dict[str, Any], log: Path) -> list[tuple[str, bytes]]:
+    """The files a run came from and made: the mission (as its header names it, else beside
+    the log), its task libraries (those the header names, else its USES, else Ictineu's,
+    with the core library) and the mosaic beside the log. What cannot be found is left out."""
+    found: list[tuple[str, bytes]] = []
+    mission = _readable(Path(str(header.get("file", ""))), log)
+    if mission is not None:
+        found.append((mission.name, mission.read_bytes()))
+    found += _libraries(header, mission)
+    for suffix in MOSAIC_SUFFIXES:
+        path = log.with_suffix(suffix)
+        if _regular(path, MAX_MOSAIC):
+            found.append((path.name, path.read_bytes()))
+    return found
+
+
+def _libraries(header: dict[str, Any], mission: Path | None) -> list[tuple[str, bytes]]:
+    named = [str(t) for t in header.get("tasks") or []]
+    if not named and mission is not None:
+        try:
+            uses = list(parser.parse(Source(str(mission), mission.read_text("utf-8"))).uses)
+        except (MclError, UnicodeDecodeError):
+            uses = []
+        named = [u.library if tasklib.is_shipped(u.library)
+                 else str(mission.parent / u.library) for u in uses]
+    out = [("core.tasks", tasklib.shipped_source("core.tasks").text.encode())]
+    for name in named or ["ictineu"]:
+        if tasklib.is_shipped(name):
+            out.append((f"{name}.tasks", tasklib.shipped_source(f"{name}.tasks").text.encode()))
+        elif _regular(Path(name)):
+            out.append((Path(name).name, Path(name).read_bytes()))
+    return out
+
+
+def _readable(path: Path, log: Path) -> Path | None:
+    """The mission file as the header names it (relative to here, else to the log's
+    folder), if it is a regular file small enough to attach."""
+    for candidate in (path, log.parent / path.name):
+        if str(path) and _regular(candidate):
+            return candidate
+    return None
+
+
+def _regular(path: Path, limit: int = MAX_ATTACHED) -> bool:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return False
+    return stat.S_ISREG(st.st_mode) and st.st_size <= limit and os.access(path, os.R_OK)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

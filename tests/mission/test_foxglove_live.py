@@ -1,0 +1,138 @@
+"""The live view (mission/foxglove_live.py): a client speaking Foxglove's WebSocket protocol
+(``foxglove.sdk.v1``) subscribes to the mission's status and the vehicle's pose and receives
+them as the run makes them, each valid against its schema."""
+
+from __future__ import annotations
+
+import json
+import struct
+from typing import Any
+
+import pytest
+
+from diagnostics import MclError
+from mcl.api import compile_file
+from mission.foxglove_live import LiveView, address, task_calls
+from mission.foxglove_schemas import SCHEMAS
+from mission.mcap_export import Pose, Track
+from petri.execution.reporting import Record
+from tests.support import MISSIONS, free_tcp_port
+from tests.websocket_client import WebSocket
+
+pytest.importorskip("foxglove", reason="foxglove-sdk is an optional extra (mcl-auv[foxglove])")
+jsonschema = pytest.importorskip("jsonschema")
+
+PROTOCOL = "foxglove.sdk.v1"
+
+
+def channels(ws: WebSocket, wanted: set[str]) -> dict[str, dict[str, Any]]:
+    """The channels the server advertises, by topic, once those ``wanted`` are all seen."""
+    seen: dict[str, dict[str, Any]] = {}
+    while not wanted <= set(seen):
+        opcode, payload = ws.receive()
+        if opcode == 1:
+            message = json.loads(payload)
+            if message.get("op") == "advertise":
+                seen.update({c["topic"]: c for c in message["channels"]})
+    return seen
+
+
+def received(ws: WebSocket, subscriptions: dict[int, str], count: int
+             ) -> list[tuple[str, int, dict[str, Any]]]:
+    """The next ``count`` message-data frames: (topic, log time, JSON)."""
+    out = []
+    while len(out) < count:
+        opcode, payload = ws.receive()
+        if opcode == 2 and payload[0] == 0x01:  # messageData
+            sub, log_time = struct.unpack_from("<IQ", payload, 1)
+            out.append((subscriptions[sub], log_time, json.loads(payload[13:])))
+    return out
+
+
+@pytest.fixture
+def live() -> Any:
+    view = LiveView("127.0.0.1", free_tcp_port(), {"file": "m.mcl", "mission": "m"},
+                    ["GoTo@3:5", "Surface@4:5"])
+    yield view
+    view.close()
+
+
+def test_a_client_receives_the_status_and_the_pose(live: LiveView) -> None:
+    ws = WebSocket("127.0.0.1", live.port, PROTOCOL)
+    assert f"sec-websocket-protocol: {PROTOCOL}" in ws.head.lower()
+    seen = channels(ws, {"/mission/status", "/vehicle/pose/true"})
+    assert seen["/mission/status"]["schemaName"] == "mcl.MissionStatus"
+    assert seen["/vehicle/pose/true"]["schemaName"] == "foxglove.PoseInFrame"
+    subscriptions = {1: "/mission/status", 2: "/vehicle/pose/true"}
+    ws.send_text(json.dumps({"op": "subscribe", "subscriptions": [
+        {"id": sub, "channelId": seen[topic]["id"]} for sub, topic in subscriptions.items()]}))
+    # the subscription is in place when a message sent after it arrives: send until one does
+    for attempt in range(50):
+        live.poses(Track([Pose(0.2 * attempt, -1.5, 0.0, 1.0, 0.1)],
+                         [Pose(0.2 * attempt, -1.4, 0.1, 1.1, 0.1)]))
+        ws.sock.settimeout(0.2)
+        try:
+            first = received(ws, subscriptions, 1)
+            break
+        except TimeoutError:
+            continue
+    else:
+        pytest.fail("no pose received after subscribing")
+    ws.sock.settimeout(10)
+    live(Record(12.0, "fire", {"transition": "GoTo@3:5.start", "index": 1,
+                               "cause": "immediate", "label": "start",
+                               "construct": "GoTo(p)", "line": 3}))
+    live(Record(13.5, "fire", {"transition": "GoTo@3:5.ok.GoTo.reached", "index": 2,
+                               "cause": "GoTo.reached", "label": "ok",
+                               "construct": "GoTo(p)", "line": 3}))
+    topic, log_time, pose = first[0]
+    assert topic == "/vehicle/pose/true" and pose["pose"]["position"]["x"] == -1.5
+    jsonschema.validate(pose, SCHEMAS["foxglove.PoseInFrame"])
+    statuses = received(ws, subscriptions, 2)
+    assert [t for t, _, _ in statuses] == ["/mission/status"] * 2
+    assert [lt for _, lt, _ in statuses] == [12_000_000_000, 13_500_000_000]
+    for _, _, status in statuses:
+        jsonschema.validate(status, SCHEMAS["mcl.MissionStatus"])
+    assert [s["tasks"][0]["state"] for _, _, s in statuses] == ["running", "ok"]
+    assert statuses[-1][2]["tasks"][1] == {"task": "Surface@4:5", "line": 4, "state": "waiting"}
+    ws.close()
+
+
+def test_a_port_taken_is_one_clear_error(live: LiveView) -> None:
+    with pytest.raises(MclError, match=f"127.0.0.1:{live.port}: cannot serve there"):
+        LiveView("127.0.0.1", live.port, {}, [])
+
+
+def test_task_calls_of_a_net_in_source_order() -> None:
+    calls = task_calls(compile_file(str(MISSIONS / "dam_inspection.mcl")).net)
+    assert calls[0].startswith("StartLogs@32:") and calls[-1].startswith("Surface@")
+    assert any(c.startswith("WallInspect@39:") for c in calls)
+
+
+@pytest.mark.parametrize("text, expected", [("127.0.0.1:8765", ("127.0.0.1", 8765)),
+                                            ("localhost:0", ("localhost", 0))])
+def test_address(text: str, expected: tuple[str, int]) -> None:
+    assert address(text) == expected
+
+
+@pytest.mark.parametrize("text", ["8765", ":8765", "host:", "host:port", "host:70000"])
+def test_address_refused(text: str) -> None:
+    with pytest.raises(ValueError, match="HOST:PORT"):
+        address(text)
+
+
+def test_the_monitor_s_status_marks_a_task_no_longer_running_ended(live: LiveView) -> None:
+    def status(t: float, running: list[str], state: str = "running") -> str:
+        return json.dumps({"v": 1, "mission": "m", "t": t, "status": state,
+                           "running": [{"task": c, "since": 0.0} for c in running]})
+
+    live.remote_status(status(1.0, ["Surface@9:5", "GoTo@3:5"]))
+    assert live.messages.states == {"GoTo@3:5": "running", "Surface@4:5": "waiting",
+                                    "Surface@9:5": "running"}
+    live.remote_status(status(2.0, ["Surface@9:5"]))
+    assert live.messages.states["GoTo@3:5"] == "ended"
+    live.remote_status("not json")
+    live.remote_status(json.dumps({"v": 2, "running": []}))  # another version: ignored
+    live.remote_status(status(3.0, [], "ok"))
+    assert live.messages.status == "ok" and live.messages.states["Surface@9:5"] == "ended"
+    jsonschema.validate(live.messages.status_message(3.0).data, SCHEMAS["mcl.MissionStatus"])

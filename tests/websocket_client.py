@@ -1,0 +1,80 @@
+"""A minimal WebSocket client (RFC 6455) for tests: enough to speak to a server as a
+Foxglove client does (a subprotocol, text and binary frames), with no library of its own."""
+
+from __future__ import annotations
+
+import base64
+import os
+import socket
+import struct
+
+
+class WebSocket:
+    """A client connection: :meth:`send_text`, :meth:`receive` (opcode, payload)."""
+
+    def __init__(self, host: str, port: int, protocol: str, timeout: float = 10.0):
+        self.sock = socket.create_connection((host, port), timeout=timeout)
+        key = base64.b64encode(os.urandom(16)).decode()
+        self.sock.sendall((f"GET / HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\n"
+                           f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
+                           f"Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: {protocol}"
+                           "\r\n\r\n").encode())
+        response = b""
+        while b"\r\n\r\n" not in response:
+            chunk = self.sock.recv(4096)
+            if not chunk:
+                raise ConnectionError("closed during the handshake")
+            response += chunk
+        head, _, self.buffer = response.partition(b"\r\n\r\n")
+        self.head = head.decode("latin-1")
+        if " 101 " not in self.head.splitlines()[0]:
+            raise ConnectionError(self.head)
+
+    def read(self, n: int) -> bytes:
+        while len(self.buffer) < n:
+            chunk = self.sock.recv(65536)
+            if not chunk:
+                raise ConnectionError("closed")
+            self.buffer += chunk
+        out, self.buffer = self.buffer[:n], self.buffer[n:]
+        return out
+
+    def receive(self) -> tuple[int, bytes]:
+        """The next whole message: (1 text or 2 binary, its payload); pings are answered."""
+        while True:
+            first, second = self.read(2)
+            opcode, length = first & 0x0F, second & 0x7F
+            if length == 126:
+                length = struct.unpack(">H", self.read(2))[0]
+            elif length == 127:
+                length = struct.unpack(">Q", self.read(8))[0]
+            payload = self.read(length)
+            if opcode == 9:
+                self.send(10, payload)
+                continue
+            if opcode == 8:
+                raise ConnectionError("closed by the server")
+            return opcode, payload
+
+    def send(self, opcode: int, payload: bytes) -> None:
+        mask = os.urandom(4)
+        head = bytes([0x80 | opcode])
+        n = len(payload)
+        if n < 126:
+            head += bytes([0x80 | n])
+        elif n < 1 << 16:
+            head += bytes([0x80 | 126]) + struct.pack(">H", n)
+        else:
+            head += bytes([0x80 | 127]) + struct.pack(">Q", n)
+        masked = bytes(b ^ mask[i % 4] for i, b in enumerate(payload))
+        self.sock.sendall(head + mask + masked)
+
+    def send_text(self, text: str) -> None:
+        self.send(1, text.encode())
+
+    def close(self) -> None:
+        try:
+            self.send(8, b"")
+        except OSError:
+            pass
+        self.sock.close()
