@@ -30,6 +30,8 @@ INTERNAL = {
                                "and the exit status stays the end record's",
     "app.replay.Refused": "mcl replay's refusal of a log, caught in the command itself: one "
                           "line at the log's line, exit 1 or 2",
+    "app.view.command.Refused": "mcl view's refusal of a log, caught in the command itself: "
+                                "one line, exit 2",
     "petri.execution.runlog._Refused": "a value json's reader must not take (a duplicate key, "
                                        "a number out of range), caught by the reader of the "
                                        "line and told as a LogError at its line",
