@@ -40,6 +40,7 @@ import queue
 import threading
 import time
 from collections.abc import Iterable
+from dataclasses import dataclass
 from typing import Any
 
 import zenoh
@@ -59,7 +60,13 @@ from vehicle.control.stack import DT, IctineuStack, StackConfig
 
 log = logging.getLogger(__name__)
 
-NEW_RUN = ActionMessage(-1, 0.0, "", "", "disable", "", {})  # marker: a new player run began
+@dataclass(frozen=True)
+class NewRun:
+    """A marker in the queue of actions: a new player run began (applied in the loop, before
+    its actions: what the last run left on is switched off first)."""
+
+    run: str
+
 CLOCK_PERIOD = 0.02  # wall s between clock messages
 TELEMETRY_PERIOD = 0.2  # wall s between telemetry messages (5 Hz)
 MAX_SLEEP = 0.01  # wall s: the loop looks at stop, actions and the player at least this often
@@ -91,12 +98,15 @@ class VehicleServer:
         self.security = security
         self.scouting = scouting
         self.ready = ready or threading.Event()
-        self._actions: queue.Queue[ActionMessage] = queue.Queue()
+        self._actions: queue.Queue[ActionMessage | NewRun] = queue.Queue()
         self._lock = threading.Lock()
         self._player_present = threading.Event()
         self._player_gone_at: float | None = None  # monotonic, while the player is away
         self.failsafe = False  # the safe action has been taken (and not re-armed)
         self._run = ""  # the player run whose actions are taken (its token's last part)
+        # the run whose actions the stack applies: telemetry names it, so that a state of the
+        # new run never shows what the last one left on (the loop switches that off first)
+        self._applied_run = ""
         self._ended: dict[str, str] = {}  # run -> how its mission ended (its last status)
         self._last_seq: dict[str, int] = {}  # per run: the last action seq taken
         self.stale = 0  # actions of another run, or replayed, dropped
@@ -147,7 +157,7 @@ class VehicleServer:
                     if self._run:
                         log.warning("a new player run %s replaces %s", run, self._run)
                     self._run = run
-                    self._actions.put(NEW_RUN)  # applied in the loop, before its actions
+                    self._actions.put(NewRun(run))  # applied in the loop, before its actions
                 self._player_gone_at = None
                 self._player_present.set()
                 if self.failsafe:
@@ -253,8 +263,9 @@ class VehicleServer:
                 action = self._actions.get_nowait()
             except queue.Empty:
                 return
-            if action is NEW_RUN:
+            if isinstance(action, NewRun):
                 self.switch_off("a new player run")
+                self._applied_run = action.run
                 continue
             self.actions += 1
             self.stack.on_action(action, self.stack.t)
@@ -301,7 +312,7 @@ class VehicleServer:
         pub["behaviours"].put(json.dumps({
             "t": t, "active": sorted(b.name for b in self.stack.behaviours.values() if b.active),
             "failsafe": self.failsafe, "player": self._player_present.is_set(),
-            "run": self._run, "actions": self.actions, "events": self.events,
+            "run": self._applied_run, "actions": self.actions, "events": self.events,
             "dropped": self.dropped, "stale": self.stale}))
 
 
