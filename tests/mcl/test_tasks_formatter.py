@@ -246,3 +246,12 @@ def test_random_layouts_and_comments(case: tuple[str, str]) -> None:
     assert format_library_text(text) == text
     assert comments(text) == comments(source)
     assert all(line == line.rstrip() for line in text.splitlines())  # no trailing blanks
+
+
+@pytest.mark.parametrize("doc,after", [("FMT.md", "## The layout of a task library"),
+                                       ("TASKS.md", "# Task libraries")])
+def test_the_libraries_the_docs_show_are_in_the_layout(doc: str, after: str) -> None:
+    text = (REPO / "docs" / doc).read_text("utf-8")
+    block = re.search(r"```\n(.*?)```", text[text.index(after):], re.S)
+    assert block is not None and "task " in block.group(1)
+    assert format_library_text(block.group(1)) == block.group(1)
