@@ -17,7 +17,7 @@ from importlib import resources
 from pathlib import Path
 
 import lark
-from lark import Lark, Tree, UnexpectedInput
+from lark import Lark, Token, Tree, UnexpectedInput
 
 import diagnostics
 from diagnostics import Diagnostic, MclError, Source, Span, error, file_error, read_source
@@ -46,7 +46,7 @@ from mcl.values import UNITS, check, limits
 __all__ = ["ACTION_KINDS", "BUILTIN_SOURCES", "DEFAULT_DOFS", "SHIPPED", "ActionSpec",
            "Behaviour", "Estimate", "Expr", "Field", "Formal", "Library", "TaskForm",
            "LIBRARY_FILES", "is_library_file", "is_shipped", "load", "load_sources",
-           "shipped_source"]
+           "parse_library", "shipped_source"]
 
 
 @lru_cache(maxsize=1)
@@ -121,14 +121,7 @@ def build_library(sources: list[Source]) -> Library:
     drivers: list[tuple[Source, Behaviour]] = []
     for source in sources:
         library.files.append(source.name)
-        try:
-            tree = _lark().parse(source.text)
-        except UnexpectedInput as exc:
-            raise error(source, "task library: " + _syntax_message(exc),
-                        source.span(max(exc.line, 1), max(exc.column, 1)),
-                        "see mcl/grammar/tasks.lark and docs/TASKS.md for the syntax",
-                        code="library-syntax") from None
-        check_depth(source, tree)
+        tree = parse_library(source)
         builder = LibraryBuilder(source)
         for node in tree.children:
             assert isinstance(node, Tree)
@@ -149,6 +142,20 @@ def build_library(sources: list[Source]) -> Library:
         _validate(source, library, form)
         library.tasks.setdefault(form.name, []).append(form)
     return library
+
+
+def parse_library(source: Source) -> Tree[Token]:
+    """The parse tree of a ``.tasks`` file; an :class:`MclError` at the first syntax error
+    (what it declares is not checked: see :func:`build_library`)."""
+    try:
+        tree = _lark().parse(source.text)
+    except UnexpectedInput as exc:
+        raise error(source, "task library: " + _syntax_message(exc),
+                    source.span(max(exc.line, 1), max(exc.column, 1)),
+                    "see mcl/grammar/tasks.lark and docs/TASKS.md for the syntax",
+                    code="library-syntax") from None
+    check_depth(source, tree)
+    return tree
 
 
 def _check_dofs(library: Library, drivers: list[tuple[Source, Behaviour]]) -> None:

@@ -25,6 +25,7 @@ from app.version import version_text
 from diagnostics import MclError
 from mcl.analysis import duration
 from mcl.formatter import format_source
+from mcl.tasks_formatter import format_library_source
 from mcl.quantities import seconds_text
 from mission.exits import Exit
 
@@ -187,12 +188,14 @@ def register_reading(server: MclLanguageServer) -> None:
 
 
 def formatting(doc: Document) -> list[types.TextEdit]:
-    """``mcl fmt``'s layout (mcl/formatter.py) as one edit of the whole document; none for a
-    mission that does not parse (its errors are the diagnostics) or a ``.tasks`` file."""
-    if doc.mission is None or doc.path.endswith(".tasks"):
+    """``mcl fmt``'s layout (mcl/formatter.py, mcl/tasks_formatter.py for a ``.tasks`` file)
+    as one edit of the whole document; none for a text that does not parse (its errors are
+    the diagnostics)."""
+    library = doc.path.endswith(".tasks")
+    if doc.mission is None and not library:
         return []
     try:
-        text = format_source(doc.source)
+        text = format_library_source(doc.source) if library else format_source(doc.source)
     except MclError:
         return []
     if text == doc.source.text:

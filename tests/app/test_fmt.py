@@ -78,10 +78,6 @@ def test_invalid_input_is_exit_2_and_no_file_is_written(tmp_path: Path) -> None:
     assert messy.read_text("utf-8") == MESSY
     missing = cli("mcl", "fmt", str(tmp_path / "nothing.mcl"))
     assert missing.returncode == 2 and "no such file" in missing.stderr
-    library = cli("mcl", "fmt", str(REPO / "missions" / "seabed.tasks"))
-    assert library.returncode == 2
-    assert library.stderr.splitlines()[0].endswith("is a task library: mcl fmt lays out "
-                                                   "missions (.mcl) only, not yet task libraries")
     empty = tmp_path / "empty"
     empty.mkdir()
     assert cli("mcl", "fmt", str(empty)).returncode == 2
@@ -89,6 +85,41 @@ def test_invalid_input_is_exit_2_and_no_file_is_written(tmp_path: Path) -> None:
 
 def test_the_shipped_missions_are_in_the_layout() -> None:
     proc = cli("mcl", "fmt", "--check", str(MISSIONS))
+    assert (proc.returncode, proc.stdout) == (0, "")
+
+
+LIBRARY = "behaviour Go drives x events done;\ntask Go() {ok:Go.done;\n}\n"
+TIDY_LIBRARY = "behaviour Go  drives x  events done;\ntask Go() {\n    ok:      Go.done;\n}\n"
+
+
+def test_task_libraries_in_place_check_diff_and_filter(tmp_path: Path) -> None:
+    library = write(tmp_path, LIBRARY, "lib.tasks")
+    proc = cli("mcl", "fmt", "--check", str(tmp_path))
+    assert (proc.returncode, proc.stdout) == (1, f"{library}: would be reformatted "
+                                                 f"(mcl fmt {library})\n")
+    proc = cli("mcl", "fmt", "--diff", str(library))
+    assert proc.returncode == 1 and "+    ok:      Go.done;\n" in proc.stdout
+    assert library.read_text("utf-8") == LIBRARY
+    proc = cli("mcl", "fmt", str(library))
+    assert (proc.returncode, proc.stdout) == (0, f"{library}: reformatted\n")
+    assert library.read_text("utf-8") == TIDY_LIBRARY
+    filtered = subprocess.run([str(BIN / "mcl"), "fmt", "--stdin-filename", "lib.tasks", "-"],
+                              input=LIBRARY, capture_output=True, text=True,
+                              env=subprocess_env(), cwd=REPO, timeout=60)
+    assert (filtered.returncode, filtered.stdout) == (0, TIDY_LIBRARY)
+
+
+def test_a_library_that_does_not_parse_is_exit_2_and_nothing_written(tmp_path: Path) -> None:
+    library = write(tmp_path, LIBRARY, "lib.tasks")
+    broken = write(tmp_path, "task T( { }\n", "broken.tasks")
+    proc = cli("mcl", "fmt", str(tmp_path))
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert proc.stderr.startswith(f"{broken}:1:9: error: task library: unexpected '{{'")
+    assert library.read_text("utf-8") == LIBRARY
+
+
+def test_the_shipped_libraries_are_in_the_layout() -> None:
+    proc = cli("mcl", "fmt", "--check", str(REPO / "mcl" / "tasks"), str(MISSIONS / "seabed.tasks"))
     assert (proc.returncode, proc.stdout) == (0, "")
 
 
@@ -100,4 +131,4 @@ def test_the_pre_commit_hooks_run_mcl_fmt() -> None:
     for hook in ("mcl-fmt", "mcl-fmt-check"):
         assert hooks[hook]["entry"].split()[0] in scripts
         assert re.search(hooks[hook]["files"], "missions/dam_inspection.mcl")
-        assert not re.search(hooks[hook]["files"], "missions/seabed.tasks")
+        assert re.search(hooks[hook]["files"], "missions/seabed.tasks")

@@ -14,10 +14,11 @@ from app.lsp import hover, navigation, outline
 from app.lsp.diagnostics import from_mcl, from_verification, word_range
 from app.lsp.document import analyse, shipped_path
 from app.lsp.locate import at, inside
-from app.lsp.server import code_actions, inlay_hints
+from app.lsp.server import code_actions, formatting, inlay_hints
 from diagnostics import Source, Span
 from mcl.analysis.verification import verify_mission
 from mcl.api import compile_source
+from mcl.tasks_formatter import format_library_text
 
 ROOT = Path(__file__).resolve().parents[3]
 DAM = ROOT / "missions" / "dam_inspection.mcl"
@@ -194,3 +195,13 @@ def test_a_bug_of_ours_is_one_diagnostic_not_a_dead_server(
     monkeypatch.setattr("mcl.parser.parse", broken)
     [d] = analyse(str(DAM), TEXT).diagnostics
     assert d.code == "internal-error" and "ZeroDivisionError" in d.message
+
+
+def test_formatting_lays_out_a_task_library_too(tmp_path: Path) -> None:
+    # issue 26: a .tasks document is formatted by mcl fmt's library layout; one that does not
+    # parse is left alone (its error is the diagnostic)
+    text = "behaviour Go drives x events done;\ntask Go() {ok:Go.done;  // done\n}\n"
+    [edit] = formatting(analyse(str(tmp_path / "lib.tasks"), text))
+    assert edit.new_text == format_library_text(text) != text
+    assert edit.new_text.endswith("    ok:      Go.done;  // done\n}\n")
+    assert formatting(analyse(str(tmp_path / "lib.tasks"), "task Go( {\n")) == []
