@@ -22,7 +22,7 @@ import numpy as np
 from mosaic.blending import Canvas, Image
 
 STEPS = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0)  # m, the grid's possible steps
-MIN_GAP = 70  # px between two grid lines at least: room for a label ("-12.5 m")
+MIN_GAP = 60  # px between two grid lines at least: room for a label ("-12.5 m")
 LEFT, TOP, RIGHT, BOTTOM = 76, 14, 24, 64  # px of margin around the picture
 FONT_SCALE = 0.42
 MARGIN = (255, 255, 255)  # B G R of the margins
