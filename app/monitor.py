@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shutil
 import signal
 import sys
 import threading
@@ -95,7 +96,8 @@ class View:
 
     # -- rendering -------------------------------------------------------------------------------
     def screen(self, width: int = 80) -> list[str]:
-        """The full-screen view, one string per line."""
+        """The full-screen view, one string per line, each cut at ``width`` columns (the
+        terminal's: a longer line would wrap and break the redraw in place)."""
         with self.lock:
             st, tel = self.status, dict(self.telemetry)
             alive, players = self.vehicle_alive, len(self.players)
@@ -111,14 +113,13 @@ class View:
         else:
             done, total = int(st.get("done", 0)), int(st.get("total", 0))
             t = mission_time(st, clock)
-            lines.append(f"mission {st.get('mission', '?')}  {str(st.get('status')).upper()}"
+            lines.append(f"mission {st.get('mission', '?')}  {mission_state(st, alive)}"
                          f"  t = {t:.1f} s{vehicle_time_beside(st, t)}"
                          f"  ({st.get('fired', 0)} firings)")
             lines.append(f"  {bar(done, total, 30)} {done}/{total} tasks done")
-            running = st.get("running") or []
-            lines.append("  running: " + (", ".join(
-                f"{r['task']} ({t - r['since']:.0f} s)" for r in running)
-                if running else "—"))
+            running = [r for r in st.get("running") or [] if isinstance(r, dict)]
+            lines.append("  running: " + ("" if running else "—"))
+            lines.extend(f"    {task_text(r, t)}" for r in running)
             lines.append("  behaviours on: " + (", ".join(st.get("behaviours") or []) or "—"))
             ev, ac = st.get("last_event"), st.get("last_action")
             if ev:
@@ -150,11 +151,45 @@ class View:
         vstate = {None: "vehicle not seen", True: "vehicle alive", False: "vehicle LOST"}[alive]
         if st is None:
             return f"{vstate}; no mission yet"
-        running = ", ".join(r["task"] for r in st.get("running") or []) or "—"
-        return (f"{st.get('t', 0):8.1f} s{vehicle_time_beside(st, float(st.get('t', 0)))}  "
+        t = float(st.get("t", 0))
+        running = ", ".join(task_text(r, t) for r in st.get("running") or []
+                            if isinstance(r, dict)) or "—"
+        return (f"{t:8.1f} s{vehicle_time_beside(st, t)}  "
                 f"{st.get('mission', '?')} "
-                f"{str(st.get('status')).upper()}  {st.get('done', 0)}/{st.get('total', 0)} "
+                f"{mission_state(st, alive)}  {st.get('done', 0)}/{st.get('total', 0)} "
                 f"tasks done  running: {running}  ({vstate})")
+
+
+def mission_state(status: dict[str, Any], alive: bool | None) -> str:
+    """The mission's state as the monitor shows it: the player's word, but LOST for a
+    mission still running on a vehicle that is lost (its end cannot be known from here)."""
+    state = str(status.get("status")).upper()
+    return "LOST" if alive is False and state == "RUNNING" else state
+
+
+def task_text(running: dict[str, Any], t: float) -> str:
+    """One running task: its call, how far along (waypoint k of n, metres to go), how long it
+    has run and the time left of its bound: ``WallInspect@39:13 (waypoint 12/82, 96.3 m to
+    go; 240 s, 1377 s left of 3600 s)``."""
+    parts: list[str] = []
+    progress = running.get("progress")
+    if isinstance(progress, dict):
+        if "waypoint" in progress and "of" in progress:
+            parts.append(f"waypoint {progress['waypoint']}/{progress['of']}")
+        if isinstance(progress.get("to_go"), (int, float)):
+            parts.append(f"{progress['to_go']:g} m to go")
+    timing = [f"{max(0.0, t - float(running.get('since', t))):.0f} s"]
+    bound, since = running.get("bound"), running.get("since")
+    if isinstance(bound, (int, float)) and isinstance(since, (int, float)):
+        left = max(0.0, since + bound - t)
+        timing.append(f"{left:.0f} s left of {bound:g} s")
+    detail = ", ".join(parts) + ("; " if parts else "") + ", ".join(timing)
+    return f"{running.get('task', '?')} ({detail})"
+
+
+def task_detail(running: dict[str, Any], t: float) -> str:
+    """:func:`task_text` without the call: ``waypoint 12/82, 96.3 m to go; 240 s, ...``."""
+    return task_text(running, t).partition(" (")[2][:-1]
 
 
 def mission_time(status: dict[str, Any], clock: dict[str, Any]) -> float:
@@ -199,7 +234,8 @@ def watch(view: View, until_end: bool, timeout: float | None, plain: bool,
                 print(line, file=out, flush=True)
                 last_line = line
         else:
-            out.write("\x1b[H\x1b[J" + "\n".join(view.screen()) + "\n")
+            width = shutil.get_terminal_size().columns  # the terminal's, as it is now
+            out.write("\x1b[H\x1b[J" + "\n".join(view.screen(width)) + "\n")
             out.flush()
         ended = view.ended()
         if until_end and ended:

@@ -40,6 +40,7 @@ from mcl import values
 from mcl.api import Compiled, compile_file, parse_params
 from mission.exits import Exit
 from mission.limits import mission_bound
+from mission.progress import TaskProgress
 from mission.run import NotVerified, NoVehicle, RunResult, run_mission
 from mission.stop_handler import text as stop_text
 from mission.vehicle import Vehicle
@@ -49,6 +50,7 @@ from petri.execution.signing import Signer
 from app import arguments, foxglove, vehicles
 from app.guard import guarded
 from app.mclc import OutputError, check_output
+from app.monitor import task_detail
 from app.safe_exit import Output, ReportCut, Stops
 
 if TYPE_CHECKING:
@@ -203,7 +205,8 @@ def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicl
         result = run_mission(
             compiled, chosen, log=log_path, header=header, max_time=args.max_time,
             stop=stops.request, verify=not args.no_verify, clock=clock, end_note=out.note,
-            observers=[*watchers, *([] if args.quiet else [_Timeline(compiled, clock, out)])],
+            observers=[*watchers, *([] if args.quiet else [_Timeline(
+                compiled, clock, out, getattr(chosen.adapter, "progress", None))])],
             during=stops,
             waiting=_waiting, signer=signer)
     except NoVehicle as exc:  # refused before the start: nothing was sent
@@ -329,22 +332,52 @@ def _plot(path: Path, svg: Callable[[], str], log_path: Path) -> str:
     return str(path)
 
 
+PROGRESS_EVERY = 60.0  # mission s between two progress lines of a long task
+
+
 class _Timeline:
     """Prints what happens as it happens: mission time (and the vehicle's clock beside it
-    when it differs), task, action or event. Never raises (a closed stdout is dropped)."""
+    when it differs), task, action or event. While a task runs longer than
+    ``PROGRESS_EVERY`` s, a progress line every ``PROGRESS_EVERY`` s of mission time (its
+    waypoint k of n, metres to go, time left of its bound: mission/progress.py), so that a
+    long survey does not leave the timeline silent. Never raises (a closed stdout is
+    dropped)."""
 
-    def __init__(self, compiled: Compiled, clock: Any, out: Any):
+    def __init__(self, compiled: Compiled, clock: Any, out: Any,
+                 progress: Callable[[], dict[str, Any]] | None = None):
         self.compiled = compiled
         self.clock = clock
         self.out = out
+        self.tasks = TaskProgress(compiled.net, progress)
+        self.last = 0.0  # mission time of the last line printed
+
+    def when(self, t: float) -> str:
+        """Mission time ``t`` as the timeline prints it, the vehicle's clock beside it."""
+        text = f"{t:9.1f} s"
+        if self.clock.origin:
+            text += f" [vehicle {self.clock.vehicle(t):9.1f} s]"
+        return text
+
+    def tick(self, t: float) -> None:
+        """Mission time ``t`` passed (the runner's round): progress of the long tasks."""
+        if self.out.closed or t - self.last < PROGRESS_EVERY:
+            return
+        long = [r for r in self.tasks.report(t) if t - r["since"] >= PROGRESS_EVERY
+                and ("bound" in r or "progress" in r)]  # not a watcher of the whole mission
+        if long:
+            self.last = t
+        for running in long:
+            self.out.say(f"{self.when(t)}  {running['task']:<22} … "
+                         f"{task_detail(running, t)}")
 
     def __call__(self, record: Any) -> None:
+        self.tasks(record)
         if self.out.closed:
             return
         d = record.data
-        t = f"{record.t:9.1f} s"
-        if self.clock.origin:
-            t += f" [vehicle {self.clock.vehicle(record.t):9.1f} s]"
+        t = self.when(record.t)
+        if record.kind in ("action", "event", "ignored", "note"):
+            self.last = record.t
         say = self.out.say
         if record.kind == "action":
             params = ", ".join(f"{k}={_short(v)}" for k, v in d["params"].items())

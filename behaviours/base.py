@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from collections.abc import Iterable
 from typing import Any, ClassVar
 
 DOFS = ("x", "y", "z", "yaw")
@@ -91,6 +92,7 @@ class Behaviour:
         self.params: dict[str, Any] = {}
         self.raised: list[tuple[str, dict[str, Any]]] = []
         self._taken = 0
+        self.seen: Perception | None = None  # the last perception it was ticked with
 
     @classmethod
     def statement(cls) -> str:
@@ -118,12 +120,18 @@ class Behaviour:
 
     def update(self, p: Perception) -> Response:
         """One tick: the response; events go to ``raised`` (collected by the vehicle loop)."""
-        return self.on_update(p) if self.active else Response()
+        if not self.active:
+            return Response()
+        self.seen = p
+        return self.on_update(p)
 
     def update_setpoints(self, p: Perception) -> Response:
         """One tick on a vehicle whose autopilot holds positions: the response of the position
         law (:meth:`on_setpoints`); events go to ``raised`` as with :meth:`update`."""
-        return self.on_setpoints(p) if self.active else Response()
+        if not self.active:
+            return Response()
+        self.seen = p
+        return self.on_setpoints(p)
 
     def terminate(self, t: float) -> None:
         self.active = False
@@ -147,6 +155,12 @@ class Behaviour:
         autopilot holds positions (a class that drives nothing and needs nothing of such a
         vehicle writes ``return self.on_update(p)``)."""
         raise NotImplementedError(f"{self.name} has no position law")
+
+    def progress_report(self) -> dict[str, float | int] | None:
+        """How far along it is, for an operator (``mcl run``'s timeline, ``mcl monitor``, the
+        mission status): e.g. ``{"waypoint": 12, "of": 84, "to_go": 96.3}`` (``to_go`` in
+        metres); None for a behaviour that has no progress to tell."""
+        return None
 
     def take_events(self) -> list[tuple[str, dict[str, Any]]]:
         """The events raised since the last call (the vehicle loop sends them on)."""
@@ -187,6 +201,24 @@ def wrap(angle: float) -> float:
     if a <= 0:
         a += 2 * math.pi
     return a - math.pi
+
+
+def progress_of(behaviours: Iterable[Behaviour]) -> dict[str, dict[str, float | int]]:
+    """The progress of each active behaviour that tells one, by its name (JSON-ready)."""
+    out: dict[str, dict[str, float | int]] = {}
+    for b in behaviours:
+        report = b.progress_report() if b.active else None
+        if report:
+            out[b.name] = report
+    return out
+
+
+def path_left(path: list[tuple[float, float]], index: int, here: tuple[float, float]) -> float:
+    """The length (m) of the path still to go from ``here`` through waypoints ``index`` on."""
+    if index >= len(path):
+        return 0.0
+    legs = sum(math.dist(path[i], path[i + 1]) for i in range(index, len(path) - 1))
+    return math.dist(here, path[index]) + legs
 
 
 def clamp(value: float, limit: float) -> float:

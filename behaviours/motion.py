@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from behaviours.base import Behaviour, Perception, Response, clamp, wrap
+from behaviours.base import Behaviour, Perception, Response, clamp, path_left, wrap
 
 LOOKAHEAD = 0.3  # m ahead on a WallInspection leg (position law): a survey pace
 
@@ -132,6 +132,12 @@ class GoTo(Behaviour):
             target["yaw"] = yaw
         return Response(setpoints=target)
 
+    def progress_report(self) -> dict[str, float | int] | None:
+        """The straight-line distance to the target (m)."""
+        if self.seen is None:
+            return None
+        return {"to_go": round(self.aim(self.seen)[1], 1)}
+
     def aim(self, p: Perception) -> tuple[tuple[float, float, float, float], float, float]:
         """The target (x, y, z, yaw: what the action gives, the vehicle's own for the rest),
         the distance to it (m) and the yaw error (rad)."""
@@ -175,6 +181,7 @@ class WallInspection(Behaviour):
         self.clearance, self.patience, self.progress = clearance, patience, progress
         self.index = 0
         self.failed = False
+        self.path: list[tuple[float, float]] = []
 
     def on_initialise(self, t: float) -> None:
         self.index = 0
@@ -211,6 +218,14 @@ class WallInspection(Behaviour):
         k = self.speed / max(d, self.speed)  # full speed far away, slow down on arrival
         # sway along the wall: world y expressed in the body frame (facing the wall, ~ +v)
         return Response({"y": k * ey * math.cos(p.psi), "z": k * ez})
+
+    def progress_report(self) -> dict[str, float | int] | None:
+        """The waypoint it heads for (k of n) and the length of path still to go (m)."""
+        if not self.path or self.seen is None:
+            return None
+        k = min(self.index, len(self.path) - 1)
+        return {"waypoint": k + 1, "of": len(self.path),
+                "to_go": round(path_left(self.path, self.index, (self.seen.y, self.seen.z)), 1)}
 
     def on_setpoints(self, p: Perception) -> Response:
         """The (y, z) waypoints, each leg followed by a point ``LOOKAHEAD`` ahead of the

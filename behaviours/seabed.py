@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from behaviours.base import Behaviour, Perception, Response, clamp, wrap
+from behaviours.base import Behaviour, Perception, Response, clamp, path_left, wrap
 
 
 @dataclass(frozen=True)
@@ -154,6 +154,14 @@ class SearchLine(Behaviour):
         self.waypoints: list[tuple[float, float]] = []
         self.index = 0
         self.done = False
+
+    def progress_report(self) -> dict[str, float | int] | None:
+        """The leg's waypoint it heads for (k of n) and the length of search still to go (m)."""
+        if not self.waypoints or self.seen is None or self.done:
+            return None
+        k = min(self.index, len(self.waypoints) - 1)
+        return {"waypoint": k + 1, "of": len(self.waypoints), "to_go": round(path_left(
+            self.waypoints, self.index, (self.seen.x, self.seen.y)), 1)}
 
     def _plan(self, p: Perception, line: LineView | None) -> None:
         width = self.param("width", 10.0)

@@ -158,7 +158,8 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     besides the mission, its file and its net (parameters, tasks, vehicle...); ``max_time``:
     the mission time limit, s (None: from the mission's timeouts); ``stop``: called every
     round, returns why to stop now (a :class:`Stop` or a reason) or None; ``observers``: see
-    every record of the player, after the log; ``verify``: refuse an unverified mission
+    every record of the player, after the log (one with a ``tick(t)`` method is also told
+    the mission time at every round of the runner: progress reports); ``verify``: refuse an unverified mission
     (:class:`NotVerified`); ``clock``: the mission clock, for an observer that shows the
     vehicle's clock beside mission time; ``end_note``: what the end record's why adds, asked
     once the run has ended; ``during``: entered once the mission is checked and verified,
@@ -291,11 +292,15 @@ class _Play:
                     player.observers.extend((blocks, MissionStatus(
                         player, self.name, chosen.status.run,
                         lambda view: publish({**view, "blocks": blocks.now()}),
-                        vehicle_time=self.clock.vehicle)))
+                        vehicle_time=self.clock.vehicle,
+                        progress=getattr(chosen.adapter, "progress", None))))
                 player.observers.extend(observers)
+                # an observer with a tick(t) is told the mission time at every round
+                rounds = [tick for o in player.observers
+                          if callable(tick := getattr(o, "tick", None))]
                 return run(player, chosen.adapter, self.name, max_time=limit,
                            stop=self.asking(stop, opened), clock=self.clock,
-                           stop_bound=bound(self.compiled.checked))
+                           stop_bound=bound(self.compiled.checked), rounds=rounds)
         except NoVehicle as exc:  # the mission never started: nothing was sent
             if opened is not None:
                 opened.end(0.0, "no vehicle", str(exc), exit=Exit.NO_VEHICLE,

@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mosaic import accuracy, alignment, blending, image_files, registration
+from mosaic.annotate import annotate
 from mosaic.images import Survey, read
 from mosaic.projection import FloatArray
 from mosaic.stages import (
@@ -181,12 +182,20 @@ def write(result: Result, prefix: Path) -> dict[str, Path]:
     paths = {"mosaic": prefix.with_name(prefix.name + ".mosaic.png"),
              "coverage": prefix.with_name(prefix.name + ".coverage.png"),
              "figures": prefix.with_name(prefix.name + ".mosaic.json")}
-    cv2.imwrite(str(paths["mosaic"]), result.mosaic)
-    cv2.imwrite(str(paths["coverage"]), result.coverage)
+    mosaic, frame = annotate(result.mosaic, result.canvas)
+    cv2.imwrite(str(paths["mosaic"]), mosaic)
+    rows = result.canvas.rows  # the coverage map, then its legend under it
+    coverage, _ = annotate(result.coverage[:rows], result.canvas)
+    legend = np.zeros((result.coverage.shape[0] - rows, coverage.shape[1], 3), np.uint8)
+    legend[:, frame.left:frame.left + result.coverage.shape[1]] = result.coverage[rows:]
+    cv2.imwrite(str(paths["coverage"]), np.vstack([coverage, legend]))
     doc = dict(result.figures)
+    doc["picture"] = frame.json()  # where the canvas lies in both PNGs, the grid's lines
     doc["set_aside"] = {str(k): v for k, v in sorted(result.skipped.items())}
     doc["frame"] = ("wall frame: y along the wall (columns, left to right), z depth (rows, "
-                    "down), m; pixel (r, c) centred at y0 + (c + 0.5) s, z0 + (r + 0.5) s")
+                    "down), m; canvas pixel (r, c) centred at y0 + (c + 0.5) s, z0 + (r + 0.5) s, "
+                    "drawn at (r + picture.top, c + picture.left) in the PNGs, framed by the "
+                    "wall's coordinates, a grid and a scale bar (mosaic/annotate.py)")
     paths["figures"].write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
     return paths
 

@@ -12,6 +12,7 @@ import time
 from typing import Any, Protocol
 
 from aal.messages import ActionMessage, Declaration, EventMessage, InvalidMessage
+from behaviours.base import progress_of
 
 log = logging.getLogger(__name__)
 
@@ -101,6 +102,12 @@ class InProcess:
         if isinstance(behaviours, dict):
             return sorted(n for n, b in behaviours.items() if getattr(b, "active", False))
         return None
+
+    def progress(self) -> dict[str, Any]:
+        """Each active behaviour's progress (waypoint k of n, distance to go), by its name;
+        empty if the stack cannot say."""
+        behaviours: Any = getattr(self.stack, "behaviours", None)
+        return progress_of(behaviours.values()) if isinstance(behaviours, dict) else {}
 
     def confirm_off(self, names: list[str], timeout: float) -> str:
         """The stack takes actions at once: read what it has on."""

@@ -84,6 +84,7 @@ class ZenohVehicle(RemoteVehicle):
         self._asked = False
         self._active: list[str] | None = None  # the vehicle's behaviours on, per telemetry
         self._active_t = -1.0  # the vehicle time of that telemetry
+        self._progress: dict[str, Any] = {}  # the behaviours' progress, per telemetry
         self._sent_t = 0.0  # vehicle time when the last action was sent
 
     @property
@@ -190,10 +191,18 @@ class ZenohVehicle(RemoteVehicle):
             with self.lock:
                 self._active = [str(b) for b in d["active"]]
                 self._active_t = float(d.get("t", 0.0))
+                if isinstance(d.get("progress"), dict):
+                    self._progress = d["progress"]
         if run == self.run:
             self._taken.set()
         elif self._taken.is_set() and run:
             self.link_lost(f"another player (run {run}) took the vehicle")
+
+    def progress(self) -> dict[str, Any]:
+        """Each active behaviour's progress, as the vehicle's telemetry last said it
+        (behaviours/base.py, :meth:`Behaviour.progress_report`)."""
+        with self.lock:
+            return dict(self._progress)
 
     def _on_status_query(self, query: zenoh.Query) -> None:
         status = self._status

@@ -8,7 +8,9 @@ last event and last action go into the timeline. The vehicle's track is its navi
 estimate (``mcl/<v>/telemetry/navigator``), on the vehicle's clock, put on mission time by the
 last status (which gives both); while the mission runs, the page's "now" moves on with the
 vehicle's clock (``mcl/<v>/telemetry/clock``) between statuses, as ``mcl monitor``'s does. A status of a new run (another ``run`` id)
-starts the page afresh; a status of another mission is set aside and said.
+starts the page afresh; a status of another mission is set aside and said. The running tasks
+with a bound or a progress (waypoint k of n, metres to go, time left of the bound) are the
+page's ``progress``, shown beside its summary while the mission runs.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import math
 import threading
 from typing import Any
 
+from app.monitor import task_detail
 from app.view.data import MAX_TRACK, line_of
 
 FRESH = {"changes": [], "timeline": [], "end": {"t": 0.0, "status": None}}
@@ -41,6 +44,7 @@ class LiveRun:
         self.positions: list[list[float]] = []  # the navigator's [vehicle t, x, y, z]
         self.offset = 0.0  # the vehicle's clock minus mission time, as the last status says
         self.clock: float | None = None  # the vehicle's clock, as its telemetry last said
+        self.running: list[dict[str, Any]] = []  # the last status's running tasks
 
     def on_status(self, payload: bytes) -> None:
         """A status as the player published it (ill-formed ones are dropped)."""
@@ -66,6 +70,7 @@ class LiveRun:
         self.t = float(status.get("t", 0))
         self.offset = float(status.get("clock", self.t)) - self.t
         self.status = str(status.get("status"))
+        self.running = [r for r in status.get("running") or [] if isinstance(r, dict)]
         for block, state in (status.get("blocks") or {}).items():
             if self.states.get(block) != state:
                 self.states[block] = state
@@ -132,8 +137,11 @@ class LiveRun:
                 ended = "lost"
             track = [[t - self.offset, x, y, z] for t, x, y, z in self.positions
                      if t - self.offset >= 0.0] if self.run is not None else []
-            return {**self.base, "changes": list(self.changes),
-                    "timeline": list(self.timeline), "end": {"t": self.now(), "status": ended},
+            now = self.now()
+            progress = {str(r.get("task")): task_detail(r, now) for r in self.running
+                        if "bound" in r or "progress" in r} if ended is None else {}
+            return {**self.base, "changes": list(self.changes), "progress": progress,
+                    "timeline": list(self.timeline), "end": {"t": now, "status": ended},
                     "live": True, "link": link, "track": track,
                     "track_from": "the navigator's estimate" if track else ""}
 

@@ -32,7 +32,7 @@ from __future__ import annotations
 import itertools
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from aal.messages import ActionMessage, EventMessage, Vehicle
@@ -87,8 +87,11 @@ class StopHandler:
 def run(player: Player, vehicle: Vehicle, mission: str, max_time: float = UNBOUNDED_MAX_TIME,
         max_rounds: int = MAX_ROUNDS, poll: float = 0.05,
         stop: Callable[[], str | None] | None = None, clock: MissionClock | None = None,
-        confirm: float = CONFIRM_TIMEOUT, stop_bound: float = math.inf) -> Outcome:
-    """Run to the end. ``poll``: the longest single wait (wall-time vehicles); ``stop``:
+        confirm: float = CONFIRM_TIMEOUT, stop_bound: float = math.inf,
+        rounds: Sequence[Callable[[float], None]] = ()) -> Outcome:
+    """Run to the end. ``rounds``: told the mission time at each round (progress reports:
+    the mission status, ``mcl run``'s timeline); ``poll``: the longest single wait
+    (wall-time vehicles); ``stop``:
     called every round, returns why to stop now (or None) — once per request: while the
     stop handler runs, a reason means a new request; ``stop_bound``: the mission time the
     stop handler is given (its proved worst case)."""
@@ -99,6 +102,7 @@ def run(player: Player, vehicle: Vehicle, mission: str, max_time: float = UNBOUN
         return Outcome("error", 0.0, 0, f"the vehicle's clock: {type(exc).__name__}: {exc}")
     this = Run(player, vehicle, mission, clock.origin, max_time, poll, stop, confirm,
                stop_bound)
+    this.rounds_told = list(rounds)
     why = stop() if stop is not None else None
     if why:  # stopped before anything was sent
         return this.end("stopped", 0.0, why)
@@ -133,6 +137,7 @@ class Run:
         self.now = 0.0  # mission time at the last reading of the vehicle's clock
         self.rounds = 0
         self.taken = 0  # the orders taken from the player's outbox
+        self.rounds_told: list[Callable[[float], None]] = []  # told the time at each round
 
     # -- orders out ---------------------------------------------------------------------------
     def send(self, order: Order, stop: bool = False) -> None:
@@ -185,6 +190,8 @@ class Run:
         """One round: the outcome if the run ends here, else wait for the vehicle's events
         until the next timer falls due (never past the limit), then settle the player."""
         self.now = now = self.mission_time()
+        for told in self.rounds_told:
+            told(now)
         ending = self.reason_to_end(now)
         if ending is not None:
             return ending

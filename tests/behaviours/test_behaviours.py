@@ -674,3 +674,37 @@ def test_the_controller_reset_clears_the_integral() -> None:
     c.reset()
     assert c.integral == {"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0}
     assert c.update({}, {}, 0.05) == {"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0}
+
+
+def test_wall_inspection_reports_its_waypoint_and_the_path_to_go() -> None:
+    # a path of three legs of 3 m, 1 m and 3 m; the vehicle walks it (kinematic)
+    b = WallInspection()
+    assert b.progress_report() is None  # never ticked
+    b.initialise({"path": [[0.0, 1.0], [0.0, 4.0], [1.0, 4.0], [1.0, 1.0]]}, 0.0)
+    p = at(y=0.0, z=1.0)
+    b.update(p)
+    first = b.progress_report()
+    assert first is not None and first["of"] == 4
+    assert first["to_go"] == pytest.approx(7.0, abs=0.05)
+    reports = [first]
+    for _ in range(2000):
+        p = step(p, b.update(p))
+        report = b.progress_report()
+        assert report is not None
+        reports.append(report)
+        if any(name == "done" for name, _ in b.raised):
+            break
+    waypoints = [r["waypoint"] for r in reports]
+    to_go = [r["to_go"] for r in reports]
+    assert waypoints == sorted(waypoints) and waypoints[-1] == 4 and 3 in waypoints
+    assert to_go[-1] <= 0.2 and all(a >= b - 0.01 for a, b in zip(to_go, to_go[1:]))
+    b.terminate(p.t)
+    assert bh.base.progress_of([b]) == {}  # a disabled behaviour tells nothing
+
+
+def test_goto_reports_the_distance_to_its_target() -> None:
+    b = GoTo()
+    b.initialise({"x": 3.0, "y": 4.0, "z": 2.0}, 0.0)
+    b.update(at())
+    assert b.progress_report() == {"to_go": 5.0}
+    assert bh.base.progress_of([b]) == {"GoTo": {"to_go": 5.0}}

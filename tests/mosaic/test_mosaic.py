@@ -232,3 +232,30 @@ def test_open_water_is_set_aside_as_textureless(texture: WallTexture) -> None:
     why = illumination.textureless(illumination.correct(water, field))
     assert why is not None and why.startswith("no texture")
     assert illumination.textureless(illumination.correct(wall, field)) is None
+
+
+def test_the_written_mosaic_and_coverage_map_carry_the_walls_coordinates(survey: Path) -> None:
+    """Issue 25: a crack is located from the picture: both PNGs frame the canvas with the
+    wall's coordinates and a grid whose lines lie where the metres say."""
+    import json
+
+    result = build.build(survey, mm_per_px=8.0, compare_without_prior=False)
+    paths = build.write(result, survey.parent / "framed")
+    picture = json.loads(paths["figures"].read_text())["picture"]
+    c = result.canvas
+    mosaic = cv2.imread(str(paths["mosaic"]))
+    coverage = cv2.imread(str(paths["coverage"]))
+    left, top = picture["left"], picture["top"]
+    assert mosaic.shape[0] > c.rows + top and mosaic.shape[1] > c.cols + left
+    assert coverage.shape[1] == mosaic.shape[1] and coverage.shape[0] > mosaic.shape[0]
+    assert picture["y_lines"] and picture["z_lines"] and picture["px_per_m"] == 125.0
+    for y, column in picture["y_lines"].items():
+        assert column == left + round((float(y) - c.y0) / c.s - 0.5)
+        for image in (mosaic, coverage):  # the tick under the picture, in both
+            assert image[top + c.rows + 3, column].max() == 0
+    # off the grid lines, the mosaic's pixels are the blended canvas's
+    lined = set(picture["y_lines"].values())
+    free = next(col for col in range(left + 5, left + c.cols) if col not in lined
+                and col - 1 not in lined and col + 1 not in lined)
+    rows = [r for r in range(top, top + c.rows) if r not in set(picture["z_lines"].values())]
+    assert np.array_equal(mosaic[rows, free], result.mosaic[np.array(rows) - top, free - left])

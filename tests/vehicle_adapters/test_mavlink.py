@@ -287,6 +287,36 @@ def test_vehicle_killed_gives_link_lost_within_3_s_and_fail(tmp_path: Path) -> N
     assert wall < budget(10)
 
 
+@pytest.mark.slow
+def test_the_adapter_tells_the_surveys_progress(tmp_path: Path) -> None:
+    """Issue 25: the behaviours the MAVLink adapter runs tell their progress to the mission
+    status: the survey's waypoint k of 82 and the path to go, going down."""
+    from petri.execution.status import MissionStatus
+
+    compiled = compile_file(DAM, require_values=True)
+    port = free_udp_port()
+    published: list[dict[str, Any]] = []
+
+    def surveyed() -> str | None:  # stop once the survey has passed its third waypoint
+        seen = [r["progress"] for s in published for r in s["running"]
+                if r["task"] == "WallInspect@39:13" and "progress" in r]
+        return "seen" if seen and seen[-1]["waypoint"] >= 3 else None
+
+    with vehicle_process(port, tmp_path) as _:
+        player = Player(compiled.net)
+        with MavlinkVehicle(f"udpin:127.0.0.1:{port}") as vehicle:
+            status = MissionStatus(player, "dam_inspection", "r", published.append,
+                                   progress=vehicle.progress, every=5.0)
+            player.observers.append(status)
+            run(player, vehicle, "dam_inspection", max_time=600, stop=surveyed,
+                rounds=[status.tick])
+    survey = [r["progress"] for s in published for r in s["running"]
+              if r["task"] == "WallInspect@39:13" and "progress" in r]
+    assert survey and survey[-1]["waypoint"] >= 3 and {p["of"] for p in survey} == {82}
+    to_go = [p["to_go"] for p in survey]
+    assert to_go[0] > to_go[-1] and 100 < to_go[0] < 160
+
+
 def test_vehicle_surfaces_when_the_player_goes_away(tmp_path: Path) -> None:
     port = free_udp_port()
     with vehicle_process(port, tmp_path, "--gcs-timeout", "1.5", "--pilot-timeout", "1.5",

@@ -203,6 +203,22 @@ def test_vehicle_surfaces_when_the_player_goes_away() -> None:
             watcher.close()
 
 
+def test_the_vehicle_tells_the_player_its_behaviours_progress() -> None:
+    """Issue 25: the behaviours telemetry carries each active behaviour's progress, which the
+    player's adapter gives the mission status (a GoTo's distance to its target)."""
+    endpoint = free_endpoint()
+    with vehicle_process(endpoint), ZenohVehicle(endpoint, "auv") as vehicle:
+        assert vehicle.progress() == {}
+        vehicle.send(ActionMessage(0, vehicle.now(), "m", "GoTo@1:1", "enable", "GoTo",
+                                   {"x": -1.5, "y": 20.0, "z": 2.0, "yaw": 0.0,
+                                    "tolerance": 0.3}))
+        wait_for(lambda: "GoTo" in vehicle.progress(), "GoTo's progress", budget(3))
+        first = vehicle.progress()["GoTo"]["to_go"]
+        assert 15.0 < first < 25.0  # the vehicle starts near y = 0
+        wait_for(lambda: vehicle.progress()["GoTo"]["to_go"] < first - 0.5,
+                 "the distance to go shrinking", budget(6))
+
+
 def test_no_vehicle_gives_link_lost_without_hanging() -> None:
     endpoint = free_endpoint()  # nobody listens there
     start = time.monotonic()

@@ -56,6 +56,7 @@ from aal.zenoh import (
 )
 from aal.zenoh_security import Security
 from behaviours import capabilities
+from behaviours.base import progress_of
 from vehicle.control.stack import DT, IctineuStack, StackConfig
 
 log = logging.getLogger(__name__)
@@ -311,6 +312,7 @@ class VehicleServer:
                                     "distance": p.wall_distance, "heading": p.wall_heading}))
         pub["behaviours"].put(json.dumps({
             "t": t, "active": sorted(b.name for b in self.stack.behaviours.values() if b.active),
+            "progress": progress_of(self.stack.behaviours.values()),
             "failsafe": self.failsafe, "player": self._player_present.is_set(),
             "run": self._applied_run, "actions": self.actions, "events": self.events,
             "dropped": self.dropped, "stale": self.stale}))

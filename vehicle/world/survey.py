@@ -142,11 +142,21 @@ class Survey:
                    f'y2="{pad + (0 - z0) * sz:.1f}" stroke="#888" stroke-dasharray="6,3"/>')
         out.append(f'<text x="{width - pad - 220}" y="{height - 12}">blue: true path, orange: '
                    'navigator</text>')
-        for v in range(int(math.floor(y0)), int(math.ceil(y1)) + 1, 2):
-            out.append(f'<text x="{pad + (v - y0) * sx:.1f}" y="{height - pad + 16}" '
-                       f'text-anchor="middle">{v} m</text>')
-        for v in range(int(math.floor(z0)), int(math.ceil(z1)) + 1):
+        # the axes' labels: only within the plot (a label past its corner ran into the other
+        # axis's: "10 m" over "-3 m"), spaced so that neighbours never touch
+        for v in axis_ticks(y0, y1, sx, 50.0):
+            out.append(f'<text x="{pad + (v - y0) * sx:.1f}" y="{height - pad + 18}" '
+                       f'text-anchor="middle">{v:g} m</text>')
+        for v in axis_ticks(z0, z1, sz, 20.0):
             out.append(f'<text x="{pad - 8}" y="{pad + (v - z0) * sz + 4:.1f}" '
-                       f'text-anchor="end">{v} m</text>')
+                       f'text-anchor="end">{v:g} m</text>')
         out.append("</svg>")
         return "\n".join(out) + "\n"
+
+
+def axis_ticks(lo: float, hi: float, px_per_m: float, gap: float) -> list[float]:
+    """The labelled values of an axis from ``lo`` to ``hi`` (m): multiples of the smallest of
+    1, 2, 5, 10, 20, 50 m at least ``gap`` pixels apart, within [lo, hi]."""
+    step = next((v for v in (1.0, 2.0, 5.0, 10.0, 20.0, 50.0) if v * px_per_m >= gap), 100.0)
+    first, last = math.ceil(lo / step - 1e-9), math.floor(hi / step + 1e-9)
+    return [k * step for k in range(first, last + 1)]

@@ -33,6 +33,7 @@ from typing import Any
 from aal.mavlink import MODES as MODES
 from aal.messages import ActionMessage, Declaration, EventMessage
 from behaviours import capabilities
+from behaviours.base import progress_of
 
 from vehicle_adapters.link import MAX_POLL, RemoteVehicle
 from vehicle_adapters.mavlink.commands import COMMANDS, Commands, result_name
@@ -173,6 +174,12 @@ class MavlinkVehicle(RemoteVehicle):
                 return self.guided.on()
 
         return self.commands.confirm_off(names, on, timeout)
+
+    def progress(self) -> dict[str, Any]:
+        """Each active behaviour's progress (the adapter runs them: waypoint k of n, metres to
+        go), by its name."""
+        with self.lock:
+            return progress_of(self.guided.behaviours.values())
 
     def summary(self) -> dict[str, Any]:
         """What went over the link: counts, command latencies, signing."""

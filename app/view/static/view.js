@@ -145,6 +145,10 @@ function summary(t, states) {
   }
   text += ` · proved [best, worst] = [${seconds(b.best)}, ${seconds(b.worst)}]`;
   text += ` · running: ${running.length ? running.join(", ") : "—"}`;
+  const progress = Object.entries(data.progress || {});
+  if (data.live && progress.length && t >= data.end.t - 0.5) {  // now, as the player says
+    text += ` · progress: ${progress.map(([task, how]) => `${task} (${how})`).join(", ")}`;
+  }
   document.getElementById("summary").textContent = text;
   document.body.dataset.mission = states.MISSION || "waiting";
 }

@@ -154,3 +154,21 @@ def test_a_live_run_over_zenoh_in_the_browser(statuses: tuple[list[bytes], Path]
         stop(proc)
         token.undeclare()
         close_session(player)
+
+
+def test_the_page_shows_the_running_tasks_progress() -> None:
+    """Issue 25: the view shows how far along a long task is, as the status says it."""
+    live = LiveRun(base(), "auv", "ep")
+    status = {"v": 1, "mission": base()["mission"], "run": "r", "t": 266.7, "clock": 266.7,
+              "status": "running", "blocks": {"MISSION": "running"},
+              "running": [{"task": "WallInspect@39:13", "since": 23.6, "bound": 3600.0,
+                           "left": 3356.9, "progress": {"waypoint": 18, "of": 82,
+                                                        "to_go": 120.9}},
+                          {"task": "Alarms@49:9", "since": 0.0}]}
+    live.on_status(json.dumps(status).encode())
+    assert live.data()["progress"] == {
+        "WallInspect@39:13": "waypoint 18/82, 120.9 m to go; 243 s, 3357 s left of 3600 s"}
+    live.on_clock(json.dumps({"t": 326.7}).encode())  # a minute on: the time left goes down
+    assert live.data()["progress"]["WallInspect@39:13"].endswith("3297 s left of 3600 s")
+    live.on_status(json.dumps({**status, "t": 1200.7, "status": "ok", "running": []}).encode())
+    assert live.data()["progress"] == {}

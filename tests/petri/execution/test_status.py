@@ -68,3 +68,56 @@ def test_a_leak_shows_the_catch_running_and_the_surfacing() -> None:
     assert "Surface@51:9" in running  # Alarms' DO block ran
     assert published[-1]["status"] == "ok"  # the TRY's DO ended ok, so did the mission
     assert published[-1]["done"] < published[-1]["total"]
+
+
+def run_timer_mission(tmp_path: Any) -> list[dict[str, Any]]:
+    """A mission whose first call is a timer alone: ``Timeout(5 min)`` runs beside a
+    ``Wait(2 min)`` that ends the PARALLEL ... OR first; no action, no event in between."""
+    from vehicle.scripted import ScriptedVehicle, parse_script
+
+    path = tmp_path / "timer.mcl"
+    path.write_text("MISSION {\n    PARALLEL { Wait(2 min) } OR { Timeout(5 min) }\n}\n",
+                    encoding="utf-8")
+    player = Player(compile_file(str(path), require_values=True).net)
+    published: list[dict[str, Any]] = []
+    status = MissionStatus(player, "timer", "r1", published.append, every=30.0)
+    player.observers.append(status)
+    with InProcess(ScriptedVehicle(parse_script({}))) as vehicle:
+        run(player, vehicle, "timer", rounds=[status.tick])
+    return published
+
+
+def test_a_timer_shows_while_it_runs_with_its_time_left(tmp_path: Any) -> None:
+    # the case of issue 25: Timeout(5 min) left out of the running tasks until it was aborted
+    published = run_timer_mission(tmp_path)
+    seen = [r for s in published for r in s["running"] if r["task"].startswith("Timeout@")]
+    assert seen, [s["running"] for s in published]
+    first = seen[0]
+    assert first["bound"] == 300.0 and first["left"] == pytest.approx(300.0, abs=0.1)
+    wait = [r for s in published for r in s["running"] if r["task"].startswith("Wait@")]
+    assert wait and wait[0]["bound"] == 120.0
+    # the scripted vehicle's clock jumps from timer to timer: 2 min later Wait ended and the
+    # OR aborted the Timeout, its time left then 3 min
+    assert seen[-1]["left"] == pytest.approx(180.0, abs=0.1)
+    assert published[-1]["status"] == "ok" and published[-1]["running"] == []
+
+
+@pytest.mark.slow
+def test_the_survey_reports_its_waypoint_and_distance_to_go() -> None:
+    compiled = compile_file(DAM, require_values=True)
+    player = Player(compiled.net)
+    published: list[dict[str, Any]] = []
+    stack = IctineuStack(StackConfig(seed=1))
+    with InProcess(stack) as vehicle:
+        status = MissionStatus(player, "dam_inspection", "r1", published.append,
+                               progress=vehicle.progress, every=60.0)
+        player.observers.append(status)
+        run(player, vehicle, "dam_inspection", rounds=[status.tick])
+    survey = [r["progress"] for s in published for r in s["running"]
+              if r["task"] == "WallInspect@39:13" and "progress" in r]
+    assert len(survey) >= 10  # one a minute of a survey of about 20 min
+    assert all(p["of"] == 82 for p in survey)
+    waypoints = [p["waypoint"] for p in survey]
+    to_go = [p["to_go"] for p in survey]
+    assert waypoints == sorted(waypoints) and waypoints[0] < 10 < 70 < waypoints[-1]
+    assert to_go == sorted(to_go, reverse=True) and to_go[0] > 100 > 20 > to_go[-1]
