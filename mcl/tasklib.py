@@ -194,6 +194,8 @@ def _check_dofs(library: Library, drivers: list[tuple[Source, Behaviour]]) -> No
 
 def _syntax_message(exc: UnexpectedInput) -> str:
     token = getattr(exc, "token", None)
+    if token is not None and getattr(token, "type", None) == "$END":
+        return "the file ends inside a declaration (a ';' or a '}' is missing)"
     if token is not None:
         return f"unexpected '{token}'"
     char = getattr(exc, "char", None)

@@ -224,3 +224,15 @@ def test_a_fifo_named_by_uses_is_refused_unread(tmp_path: Path) -> None:
     proc = cli("mclc", str(mission))
     assert proc.returncode == 2, proc.stdout + proc.stderr
     assert "task library 'pipe.tasks' is not a regular file" in proc.stderr, proc.stderr
+
+
+@pytest.mark.parametrize("text", ["behaviour X events a", "task T() { ok: X.a; "])
+def test_a_library_cut_short_says_where_it_ends(tmp_path: Path, text: str) -> None:
+    # was "unexpected ''": the token lark gives for the end of the file
+    lib = write(tmp_path, text, "cut.tasks")
+    mission = write(tmp_path, 'USES "cut.tasks";\nMISSION m { Surface() }\n')
+    proc = cli("mclc", str(mission))
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    first = proc.stderr.splitlines()[0]
+    assert first.startswith(f"{lib}:1:") and "the file ends inside a declaration" in first, \
+        proc.stderr
