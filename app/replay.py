@@ -38,7 +38,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("mission", metavar="MISSION.mcl")
     p.add_argument("--tasks", action="append", default=[], metavar="FILE")
     p.add_argument("--key", metavar="PUBLIC.pem", default=None,
-                   help="the Ed25519 public key the run's --signing-key pairs with: the log "
+                   help="the Ed25519 public key the run's --log-key pairs with: the log "
                         "must be signed by it")
     p.add_argument("--debug", action="store_true")
     return p

@@ -18,6 +18,7 @@ import signal
 import sys
 import threading
 from collections.abc import Sequence
+from typing import Any
 
 from mission.exits import Exit
 
@@ -108,11 +109,18 @@ def zenoh_main(argv: list[str]) -> int:
     except zenoh.ZError as exc:
         print(f"--zenoh {args.zenoh}: error: {zenoh_error(exc)}", file=sys.stderr)
         return Exit.INVALID
-    on = sorted(b.name for b in server.stack.behaviours.values() if b.active)
-    print(f"vehicle {args.name} stopped after {server.stack.t:.1f} s of simulated time "
-          f"({server.actions} actions, {server.stale} stale)\n"
-          f"  behaviours on at exit: {', '.join(on) or 'none'}", flush=True)
+    print(stopped(args.name, server), flush=True)
     return Exit.OK
+
+
+def stopped(name: str, server: Any) -> str:
+    """What the Zenoh vehicle says when it stops: its simulated time, the actions it took,
+    the stale ones and the invalid ones it dropped (no run id, not an action), and the
+    behaviours still on."""
+    on = sorted(b.name for b in server.stack.behaviours.values() if b.active)
+    return (f"vehicle {name} stopped after {server.stack.t:.1f} s of simulated time "
+            f"({server.actions} actions, {server.stale} stale, {server.dropped} invalid "
+            f"dropped)\n  behaviours on at exit: {', '.join(on) or 'none'}")
 
 
 def _zenoh_problem(args: argparse.Namespace) -> str | None:

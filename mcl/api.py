@@ -95,14 +95,16 @@ def _uses(mission: ast.Mission, source: Source) -> list[str] | None:
             paths.append(use.library)
             continue
         path = os.path.join(os.path.dirname(source.name), use.library)
-        if not tasklib.is_library_file(use.library):  # never read, nor quoted: any file
+        why = tasklib.not_a_library(path)
+        if why is not None:  # never read, nor quoted: any file
             raise MclError(source.diagnostic(
-                "error", f"{use.library!r} is not a task library: {tasklib.LIBRARY_FILES}",
+                "error", f"{use.library!r} is not a task library: {why}",
                 use.span, f"shipped libraries: {', '.join(tasklib.SHIPPED)}; other paths are "
                 "relative to the mission file", "not-a-library"))
         if not os.path.isfile(path):
+            found = "is not a regular file" if os.path.exists(path) else "not found"
             raise MclError(source.diagnostic(
-                "error", f"task library {use.library!r} not found (looked for {path})",
+                "error", f"task library {use.library!r} {found} (looked for {path})",
                 use.span, f"shipped libraries: {', '.join(tasklib.SHIPPED)}; other paths are "
                 "relative to the mission file", "missing-library"))
         paths.append(path)

@@ -12,6 +12,7 @@ every degree of freedom a behaviour drives (against the ``dofs`` declarations, o
 
 from __future__ import annotations
 
+import os
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -46,7 +47,7 @@ from mcl.values import UNITS, check, limits
 __all__ = ["ACTION_KINDS", "BUILTIN_SOURCES", "DEFAULT_DOFS", "SHIPPED", "ActionSpec",
            "Behaviour", "Estimate", "Expr", "Field", "Formal", "Library", "TaskForm",
            "LIBRARY_FILES", "is_library_file", "is_shipped", "load", "load_sources",
-           "parse_library", "shipped_source"]
+           "not_a_library", "parse_library", "shipped_source"]
 
 
 @lru_cache(maxsize=1)
@@ -74,7 +75,20 @@ LIBRARY_FILES = "a task library is a file whose name ends in .tasks (its content
 def is_library_file(path: str) -> bool:
     """A path that may name a task library: a ``.tasks`` file. Nothing else is read as one,
     so that a syntax error never quotes a line of a file that is not (``/etc/passwd``)."""
-    return path.endswith(".tasks")
+    return not_a_library(path) is None
+
+
+def not_a_library(path: str) -> str | None:
+    """Why ``path`` is not read as a task library, or None: its name does not end in
+    ``.tasks``, or it is a symbolic link to a file whose name does not (``evil.tasks`` ->
+    ``/etc/shadow``: a syntax error would quote the file's first line)."""
+    if not path.endswith(".tasks"):
+        return LIBRARY_FILES
+    target = os.path.realpath(path)
+    if not target.endswith(".tasks"):
+        return (f"a task library is a file whose name ends in .tasks, and this is a link to "
+                f"{target!r} (its content was not read)")
+    return None
 
 
 def shipped_source(name: str) -> Source:
@@ -89,7 +103,7 @@ def load(paths: list[str] | None = None) -> Library:
     paths = paths or ["ictineu"]
     for path in paths:
         if not (is_shipped(path) or is_library_file(path)):
-            raise file_error(path, f"is not a task library: {LIBRARY_FILES}",
+            raise file_error(path, f"is not a task library: {not_a_library(path)}",
                              f"--tasks takes a .tasks file or a shipped library: "
                              f"{', '.join(SHIPPED)}", code="not-a-library")
     sources += [shipped_source(f"{p}.tasks") if is_shipped(p) else read_source(p)
@@ -186,6 +200,8 @@ def _check_dofs(library: Library, drivers: list[tuple[Source, Behaviour]]) -> No
 
 def _syntax_message(exc: UnexpectedInput) -> str:
     token = getattr(exc, "token", None)
+    if token is not None and getattr(token, "type", None) == "$END":
+        return "the file ends inside a declaration (a ';' or a '}' is missing)"
     if token is not None:
         return f"unexpected '{token}'"
     char = getattr(exc, "char", None)

@@ -18,6 +18,7 @@ decoded:
 
 from __future__ import annotations
 
+import math
 import os
 import stat
 import struct
@@ -82,9 +83,26 @@ def png_size(path: Path) -> tuple[int, int]:
 
 def check_camera(width: int, height: int) -> None:
     """ValueError unless the camera's images have a size within :data:`MAX_IMAGE_PIXELS`."""
-    if width < 1 or height < 1 or width * height > MAX_IMAGE_PIXELS:
-        raise ValueError(f"a camera of {width} x {height} pixels: at most "
+    size = f"{width} x {height}" if max(abs(width), abs(height)) < 10**9 else "so many"
+    if width < 1 or height < 1:
+        raise ValueError(f"a camera of {size} pixels: an image is at least 1 x 1")
+    if width * height > MAX_IMAGE_PIXELS:
+        raise ValueError(f"a camera of {size} pixels: at most "
                          f"{MAX_IMAGE_PIXELS:,} pixels an image")
+
+
+def check_optics(width: int, height: int, focal: tuple[float, float],
+                 centre: tuple[float, float]) -> None:
+    """ValueError unless the camera's focal lengths (pixels) are positive and finite and its
+    principal point lies within its ``width`` x ``height`` image: a focal length of 0 would
+    divide every pixel's ray by zero, a point off the image project nowhere on the wall."""
+    if not all(math.isfinite(f) and f > 0 for f in focal):
+        raise ValueError(f"focal lengths fx = {focal[0]:.6g}, fy = {focal[1]:.6g}: each must "
+                         "be a positive number of pixels")
+    cx, cy = centre
+    if not (0 <= cx <= width and 0 <= cy <= height):  # also False for a NaN
+        raise ValueError(f"principal point ({cx:.6g}, {cy:.6g}) off the {width} x {height} "
+                         "image")
 
 
 def check_image(folder: Path, name: str, width: int, height: int) -> Path:

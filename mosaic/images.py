@@ -111,6 +111,7 @@ def read(path: str | Path, max_bytes: int = image_files.MAX_BYTES) -> Survey:
         k = Intrinsics.from_dict(meta["intrinsics"])
         wall_x = float(meta.get("wall", {}).get("x", 0.0))
         image_files.check_camera(k.width, k.height)
+        image_files.check_optics(k.width, k.height, (k.fx, k.fy), (k.cx, k.cy))
     except (ValueError, KeyError, TypeError, AttributeError, OSError) as exc:
         at = (Span(str(meta_path), exc.lineno, exc.colno)
               if isinstance(exc, json.JSONDecodeError) else None)

@@ -371,3 +371,16 @@ def test_bad_key_files_are_one_line_and_exit_2(
                           timeout=120, cwd=REPO, env=subprocess_env())
     assert done.returncode == 2 and "--log-key: not a regular file" in done.stderr, done.stderr
     assert not (tmp_path / "r.jsonl").exists()
+
+
+def test_replay_help_names_the_option_that_signs_a_log(capsys: pytest.CaptureFixture[str]) -> None:
+    # --key pairs with mcl run's --log-key (the run log's key); --signing-key is MAVLink's
+    with pytest.raises(SystemExit):
+        mcl.main(["replay", "--help"])
+    replay_help = " ".join(capsys.readouterr().out.split())
+    with pytest.raises(SystemExit):
+        mcl.main(["run", "--help"])
+    run_help = " ".join(capsys.readouterr().out.split())
+    named = replay_help.split("the Ed25519 public key the run's ", 1)[1].split()[0]
+    assert named == "--log-key", replay_help
+    assert f"{named} FILE sign every line of the run log" in run_help, run_help

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import lark
@@ -182,3 +183,56 @@ def test_a_tasks_file_with_a_mistake_is_still_quoted(tmp_path: Path) -> None:
     assert proc.returncode == 2 and f"{lib}:1:22: error: task library" in proc.stderr, \
         proc.stderr
     assert "behaviour Arm events done" in proc.stderr
+
+
+@pytest.mark.parametrize("how", ["USES", "--tasks"])
+def test_a_tasks_link_to_a_file_that_is_not_a_task_library_is_not_read(
+        tmp_path: Path, how: str) -> None:
+    # found rerunning issue 22 from a fresh clone: evil.tasks -> /etc/shadow was read, and
+    # its syntax error quoted the file's first line
+    secret = write(tmp_path, SECRET, "shadow")
+    link = tmp_path / "evil.tasks"
+    link.symlink_to(secret)
+    if how == "USES":
+        mission = write(tmp_path, 'USES "evil.tasks";\nMISSION m { Surface() }\n')
+        proc = cli("mclc", str(mission))
+        where = f"{mission}:1:6: error: 'evil.tasks' is not a task library"
+    else:
+        mission = write(tmp_path, "MISSION m { Surface() }\n")
+        proc = cli("mclc", str(mission), "--tasks", str(link))
+        where = f"{link}:1:1: error: is not a task library"
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert proc.stderr.startswith(where), proc.stderr
+    assert f"this is a link to '{secret}'" in proc.stderr, proc.stderr
+    assert "root" not in proc.stderr.replace(str(tmp_path), ""), proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_a_tasks_link_to_a_task_library_is_read(tmp_path: Path) -> None:
+    lib = write(tmp_path, "behaviour Arm events done\n", "real.tasks")
+    (tmp_path / "link.tasks").symlink_to(lib)
+    mission = write(tmp_path, 'USES "link.tasks";\nMISSION m { Wait(1 s) }\n')
+    proc = cli("mclc", str(mission))
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert f"{tmp_path / 'link.tasks'}:1:22: error: task library" in proc.stderr, proc.stderr
+    assert "behaviour Arm events done" in proc.stderr  # a library's mistake is still quoted
+
+
+def test_a_fifo_named_by_uses_is_refused_unread(tmp_path: Path) -> None:
+    os.mkfifo(tmp_path / "pipe.tasks")
+    mission = write(tmp_path, 'USES "pipe.tasks";\nMISSION m { Surface() }\n')
+    proc = cli("mclc", str(mission))
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert "task library 'pipe.tasks' is not a regular file" in proc.stderr, proc.stderr
+
+
+@pytest.mark.parametrize("text", ["behaviour X events a", "task T() { ok: X.a; "])
+def test_a_library_cut_short_says_where_it_ends(tmp_path: Path, text: str) -> None:
+    # was "unexpected ''": the token lark gives for the end of the file
+    lib = write(tmp_path, text, "cut.tasks")
+    mission = write(tmp_path, 'USES "cut.tasks";\nMISSION m { Surface() }\n')
+    proc = cli("mclc", str(mission))
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    first = proc.stderr.splitlines()[0]
+    assert first.startswith(f"{lib}:1:") and "the file ends inside a declaration" in first, \
+        proc.stderr

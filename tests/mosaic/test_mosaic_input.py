@@ -7,6 +7,7 @@ address-space limit that the old decoding overran."""
 
 from __future__ import annotations
 
+import json
 import os
 import resource
 import struct
@@ -130,7 +131,46 @@ def fifo_index(folder: Path) -> str:
     return "unreadable index (not a regular file)"
 
 
+def camera(folder: Path, **intrinsics: object) -> None:
+    """Rewrite camera.json's intrinsics with these values (text: written as given)."""
+    meta = folder / "camera.json"
+    data = json.loads(meta.read_text("utf-8"))
+    data["intrinsics"].update({k: "@" + k for k in intrinsics})
+    text = json.dumps(data, indent=1)
+    for key, value in intrinsics.items():
+        text = text.replace(f'"@{key}"', str(value))
+    meta.write_text(text, "utf-8")
+
+
+def focal_zero(folder: Path) -> str:  # was exit 3: ZeroDivisionError in the projection
+    camera(folder, fx=0)
+    return "unreadable camera description (focal lengths fx = 0, fy = "
+
+
+def focal_nan(folder: Path) -> str:
+    camera(folder, fy="NaN")
+    return "fy = nan: each must be a positive number of pixels)"
+
+
+def centre_off(folder: Path) -> str:
+    camera(folder, cx="1e300")
+    return "unreadable camera description (principal point (1e+300, "
+
+
+def width_negative(folder: Path) -> str:
+    camera(folder, width=-5)
+    return "unreadable camera description (a camera of -5 x 240 pixels: an image is at least"
+
+
+def width_huge(folder: Path) -> str:  # the number is not quoted whole
+    camera(folder, width="1" + "0" * 400)
+    return "unreadable camera description (a camera of so many pixels: at most"
+
+
 HOSTILE: dict[str, Callable[[Path], str]] = {
+    "a focal length of 0": focal_zero, "a focal length NaN": focal_nan,
+    "a principal point off the image": centre_off, "a negative width": width_negative,
+    "a width of 401 digits": width_huge,
     "../../etc/passwd": dot_dot, "an absolute path": absolute,
     "a symbolic link out": link_out, "a symbolic link in": link_in,
     "a mismatched image": mismatched, "a 20000 x 20000 PNG": huge,

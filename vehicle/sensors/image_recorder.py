@@ -37,6 +37,7 @@ class ImageRecorder:
     plan: list[tuple[float, float]] = field(default_factory=list)
     texture: TextureSpec | None = None  # default: TextureSpec(seed)
     background: bool = False  # render and write in a worker thread (mcl run)
+    failure: str = ""  # why images stopped being kept: the first that could not be written
     _pool: Any = None
     _pending: list[Any] = field(default_factory=list)
     _camera: WallCamera | None = None
@@ -99,14 +100,30 @@ class ImageRecorder:
 
     def _write(self, index: int, name: str, t: float, pose: tuple[float, float, float, float],
                nav: dict[str, float]) -> None:
+        """Render and keep one image; the first that cannot be kept (a full disk, the folder
+        removed) raises OSError and sets :attr:`failure`, and no image is rendered after it
+        (each failed write used to print libpng's error again, 1,312 lines on a full disk)."""
+        if self.failure:
+            return
+        try:
+            self._keep(index, name, t, pose, nav)
+        except OSError as exc:
+            self.failure = (f"only the first {index} images kept; {exc}"
+                            if index else str(exc))
+            raise OSError(self.failure) from None
+
+    def _keep(self, index: int, name: str, t: float, pose: tuple[float, float, float, float],
+              nav: dict[str, float]) -> None:
         import cv2
 
         cam = self.camera()
         assert self._rng is not None
         img = cam.render(pose, self._rng)
-        cv2.imwrite(str(self.folder / name), img, [cv2.IMWRITE_PNG_COMPRESSION, 1,  # fast
-                                                    cv2.IMWRITE_PNG_STRATEGY,
-                                                    cv2.IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY])
+        if not cv2.imwrite(str(self.folder / name), img, [
+                cv2.IMWRITE_PNG_COMPRESSION, 1,  # fast
+                cv2.IMWRITE_PNG_STRATEGY, cv2.IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY]):
+            raise OSError(f"image {name} could not be written in {self.folder} (a full disk? "
+                          "the folder removed?)")
         row: dict[str, Any] = {"index": index, "t": round(t, 3), "file": name,
                                "x": pose[0], "y": pose[1], "z": pose[2], "psi": pose[3]}
         row.update(nav)
