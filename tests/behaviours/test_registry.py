@@ -84,7 +84,7 @@ def test_the_shipped_task_libraries_agree_with_the_registry() -> None:
 
 
 @pytest.mark.parametrize("change, found", [
-    (("behaviour GoTo            drives x, y, z, yaw", "behaviour GoTo drives x, y, z"),
+    (("behaviour GoTo             drives x, y, z, yaw", "behaviour GoTo drives x, y, z"),
      "GoTo drives ('x', 'y', 'z') in the library"),
     (("events achieved, lost", "events achieved, lost, drifted"),
      "AchieveHeadDist events ('achieved', 'lost', 'drifted')"),
