@@ -176,12 +176,12 @@ def test_symbolic_refuses_a_net_that_is_not_one_safe(tmp_path: Path) -> None:
 
 
 # -- a memory budget, never a MemoryError (issue 21) -------------------------------------------
-# ``mclc Philosophers-PT-000050/model.pnml`` on the default install (numpy, no numba) ended
+# ``mclc Philosophers-PT-000050/model.pnml`` on the then default install (numpy, no numba) ended
 # "internal error: MemoryError: Unable to allocate 28.1 GiB", exit 3: one BFS level's
 # candidate firings at once. Run under an address-space limit, as a user's machine would be.
 ADDRESS_SPACE = 3 << 30
-ENGINES_RUN = {"installed": "", "default install (no numba)": "import sys; "
-               "sys.modules['numba'] = None; "}  # what `pip install mcl` without [large] has
+ENGINES_RUN = {"installed": "", "without numba": "import sys; "
+               "sys.modules['numba'] = None; "}  # where numba cannot be installed (numpy engine)
 
 
 def mclc_limited(*args: str, prelude: str = "") -> subprocess.CompletedProcess[str]:
