@@ -30,6 +30,7 @@ from mission.mcap_export import Run, Track, Written, camera_index, write_fleet
 from mosaic.images import images_folder
 from petri.execution.runlog import read_log, verify
 
+from app import arguments
 from app.guard import guarded
 from app.mclc import OutputError, check_output
 
@@ -39,7 +40,7 @@ MOSAIC_SUFFIXES = (".mosaic.png", ".coverage.png", ".mosaic.json")
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="mcl export", description="Write a run log, verified, "
+    p = arguments.Parser(prog="mcl export", description="Write a run log, verified, "
                                 "as an MCAP file that Foxglove opens (docs/MCAP.md).")
     p.add_argument("logs", metavar="RUN.jsonl", nargs="+",
                    help="a run log; several (a fleet's): each vehicle under /NAME, its log's "

@@ -22,12 +22,13 @@ from pathlib import Path
 from diagnostics import Source, file_error, read_source
 from mcl.formatter import format_source
 
+from app import arguments
 from app.guard import guarded
 from mission.exits import Exit
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = arguments.Parser(
         prog="mcl fmt",
         description="Rewrite MCL missions in the one canonical layout, comments kept "
                     "(docs/FMT.md). Exit 0 done, 1 a file would change (--check, --diff), "

@@ -32,6 +32,19 @@ class Span:
         return cls(file, 0, 0)
 
 
+UNPRINTABLE = {c: "\N{REPLACEMENT CHARACTER}" for c in (*range(0x20), 0x7F, *range(0x80, 0xA0),
+                                                     0x2028, 0x2029, *range(0x202A, 0x202F),
+                                                     *range(0x2066, 0x206A)) if c != 0x09}
+
+
+def printable(line: str) -> str:
+    """A line of a user's file as a message may quote it: each control character, line or
+    paragraph separator and bidirectional override (which a terminal would act on: a new
+    line, an escape sequence, text shown reversed) one replacement character, so that the
+    quote stays one line and its caret stays under the same column."""
+    return line.translate(UNPRINTABLE)
+
+
 @dataclass(frozen=True)
 class Diagnostic:
     severity: str  # "error" | "warning" | "note"
@@ -45,8 +58,9 @@ class Diagnostic:
         where = f"{self.span}: " if self.span else ""
         lines = [f"{where}{self.severity}: {self.message}"]
         if self.span and self.source_line:
-            text = self.source_line.rstrip("\n").expandtabs(4)
-            prefix = self.source_line[: max(self.span.col - 1, 0)].expandtabs(4)
+            shown = printable(self.source_line.rstrip("\n"))
+            text = shown.expandtabs(4)
+            prefix = shown[: max(self.span.col - 1, 0)].expandtabs(4)
             width = 1
             if self.span.end_line == self.span.line and self.span.end_col > self.span.col:
                 width = self.span.end_col - self.span.col
