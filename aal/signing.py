@@ -94,7 +94,13 @@ def key_from_text(text: str, where: str) -> bytes:
         raise _refuse(where, "the signing key is empty")
     if _HEX_KEY.fullmatch(text):
         return bytes.fromhex(text)
-    return hashlib.sha256(text.encode("utf-8")).digest()
+    try:  # from the environment, bytes that are not UTF-8 come as surrogates
+        data = text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise _refuse(where, "the signing key is not UTF-8 text") from None
+    if len(data) > MAX_KEY_BYTES:
+        raise _refuse(where, f"larger than {MAX_KEY_BYTES:,} bytes: not a signing key")
+    return hashlib.sha256(data).digest()
 
 
 MAX_KEY_BYTES = 64 * 1024  # a signing key file: 64 hex digits, or a passphrase

@@ -109,7 +109,7 @@ def for_role(role: str, endpoint: str, *, user: str | None = None,
         if password_file:
             password = read_password(password_file)
         elif os.environ.get(PASSWORD_ENV):
-            password = os.environ[PASSWORD_ENV]
+            password = env_password(os.environ[PASSWORD_ENV])
         else:
             raise ValueError(f"--user {user} needs a password: --password-file FILE or "
                              f"the environment variable {PASSWORD_ENV}")
@@ -211,6 +211,24 @@ def read_password(name: str) -> str:
     if not password:
         raise ValueError(f"--password-file {name}: empty; put the password on its first line")
     return password
+
+
+def env_password(text: str) -> str:
+    """The password in ``$MCL_ZENOH_PASSWORD``, checked as a password file's first line is:
+    UTF-8 text (Python holds bytes that are not as surrogates, which Zenoh refuses with a
+    traceback), one line, at most :data:`MAX_FILE_BYTES`; ValueError naming the variable."""
+    where = f"${PASSWORD_ENV}"
+    try:
+        size = len(text.encode("utf-8"))
+    except UnicodeEncodeError:
+        raise ValueError(f"{where}: not UTF-8 text") from None
+    if size > MAX_FILE_BYTES:
+        raise ValueError(f"{where}: longer than {MAX_FILE_BYTES:,} bytes: not a password")
+    if any(c in text for c in "\r\n\x00"):
+        raise ValueError(f"{where}: more than one line: give the password alone")
+    if not text.strip():
+        raise ValueError(f"{where}: only spaces: give the password")
+    return text.strip()
 
 
 def read_users(name: str) -> tuple[str, ...]:

@@ -30,7 +30,9 @@ each. Examples are derandomized, so CI sees the same ones.
 from __future__ import annotations
 
 import io
+import os
 import re
+import shutil
 import signal
 import tarfile
 from collections.abc import Iterator
@@ -42,11 +44,13 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
+from aal.zenoh import MAX_LEASE_MS, MIN_LEASE_MS, lease_ms
 from app import mcl, pnml_report
 from petri.execution.runlog import GENESIS, chain
 from tests.app.test_bad_input import (  # noqa: F401 - fuzz_folder is a fixture
     PARAMS, SMALL, Accepted, accepted, assert_clear, call, fuzz_folder, inside, mutated)
-from tests.support import REPO
+from tests.support import (
+    BIN, REPO, budget, first_line, free_tcp_port, free_udp_port, started, subprocess_env)
 
 FUZZ = settings(max_examples=40, deadline=None, derandomize=True,
                 suppress_health_check=[HealthCheck.function_scoped_fixture,
@@ -54,17 +58,18 @@ FUZZ = settings(max_examples=40, deadline=None, derandomize=True,
 FEW = settings(FUZZ, max_examples=6)
 DOCUMENTED = {  # docs/EXIT.md, without 3 (an internal error)
     "replay": {0, 1, 2}, "mosaic": {0, 2}, "export": {0, 2}, "view": {0, 2},
-    "fmt": {0, 1, 2}, "pnml_report": {0, 2, 4}, "mclc": {0, 1, 2, 4}, "run": {0, 1, 2, 4, 5},
+    "fmt": {0, 1, 2}, "pnml_report": {0, 2, 4}, "check": {0, 1, 2, 4}, "run": {0, 1, 2, 4, 5},
     "vehicle": {0, 2}, "monitor": {0, 1, 2, 4},
 }
 HUGE_NUMBERS = ["9" * 5000, "1e400", "-1e400", "1" + "0" * 400, "NaN", "Infinity",
                 "-0", "18446744073709551616", "1e-400", "0.1"]
 
 
-def assert_one_line(command: str, argv: list[str], code: int, err: str) -> None:
+def assert_one_line(command: str, argv: list[str], code: int, err: str,
+                    also: tuple[str, ...] = ()) -> None:
     """The status is one ``command`` documents; on 2, one line naming the file or option
-    (tests/app/test_bad_input.py's :func:`assert_clear`) and no usage: the lines under it
-    are indented (a mission's source line and its caret, a hint)."""
+    (tests/app/test_bad_input.py's :func:`assert_clear`), or a name in ``also``, and no
+    usage: the lines under it are indented (a mission's source line and its caret, a hint)."""
     assert code in DOCUMENTED[command], (argv, code, err)
     assert "Traceback" not in err and "internal error" not in err, (argv, err)
     if code != 2:
@@ -72,7 +77,8 @@ def assert_one_line(command: str, argv: list[str], code: int, err: str) -> None:
     lines = [line for line in err.splitlines() if line.strip() and not line[0].isspace()]
     assert len(lines) == 1, (argv, err)
     # its line check is the same for every command, but knows mclc's and mcl's names only
-    assert_clear("vehicle", argv, code, err.replace("python -m app.pnml_report:", "mclc:", 1))
+    assert_clear("vehicle", [*argv, *also], code,
+                 err.replace("python -m app.pnml_report:", "mclc:", 1))
 
 
 def mutated_lines(draw: st.DrawFn, data: bytes) -> bytes:
@@ -321,3 +327,185 @@ def test_a_mission_line_is_quoted_without_its_control_characters(tmp_path: Path,
     assert quoted.startswith("    \N{REPLACEMENT CHARACTER}"), err
     assert character[0] not in err, repr(err)
     assert err.splitlines()[2] == "    ^", err  # the caret under the character still
+
+
+# -- mcl mosaic: a mutated images folder -------------------------------------------------------
+@pytest.fixture(scope="module")
+def images(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A run's images folder: two images of the wall, exact navigation data."""
+    pytest.importorskip("cv2")  # the mosaic's image library; its test module needs it too
+    from tests.mosaic.test_mosaic_input import survey  # after the skip: it imports cv2
+
+    return survey(tmp_path_factory.mktemp("survey") / "run.images", images=2)
+
+
+@st.composite
+def mosaic_argv(draw: st.DrawFn, seed: Path, folder: Path) -> list[str]:
+    """The images folder copied to ``folder/run.images``, one of its files or an option
+    mutated (or none)."""
+    target = folder / "run.images"
+    shutil.copytree(seed, target)
+    broken = draw(st.sampled_from([None, "index.csv", "camera.json", "00001.png", "option"]))
+    if broken in ("index.csv", "camera.json"):
+        path = target / broken
+        path.write_bytes(draw(mutated(path.read_text("utf-8"))).encode("utf-8", "replace"))
+    elif broken == "00001.png":
+        data = bytearray((target / broken).read_bytes())
+        for _ in range(draw(st.integers(1, 4))):
+            at = draw(st.integers(0, len(data) - 1))
+            data[at] = draw(st.integers(0, 255))
+        cut = draw(st.sampled_from([len(data), len(data) // 2, 33, 8, 0]))
+        (target / broken).write_bytes(bytes(data[:cut]))
+    argv = ["mosaic", str(draw(st.sampled_from([target, folder / "run.jsonl"]))),
+            "--no-truth", "--out", str(folder / "out")]
+    if broken == "option":
+        argv += draw(st.sampled_from([["--scale", "0"], ["--scale", "nan"], ["--scale", "1e400"],
+                                      ["--max-memory", "1KiB"], ["--max-memory", "9" * 400],
+                                      ["--max-memory", "1.5MiB"], ["--out", "/dev/null/x"],
+                                      ["--out", "/proc/version"], ["--out", ""]]))
+    return argv
+
+
+@pytest.mark.slow
+@settings(FUZZ, max_examples=30)
+@given(data=st.data())
+def test_fuzz_mcl_mosaic_on_a_mutated_images_folder(images: Path, data: st.DataObject) -> None:
+    with inside(images.parent) as folder:
+        argv = data.draw(mosaic_argv(images, folder))
+        code, _, err = call(mcl.main, argv)
+        # a file of the images folder is named as such, the run log given or not
+        assert_one_line("mosaic", argv, code, err, (str(folder / "run.images"),))
+        event(f"exit {code}")
+
+
+# -- the environment the commands read --------------------------------------------------------
+ENV_VALUES = st.sampled_from([
+    "", " ", "x" * 100_000, "\udcff\udcfe", "caf\udce9", "/dev/null", "/dev/full",
+    "/proc/version", "/etc/passwd/x", "a\nb", "9" * 5000, "-1", "FOLDER/m.mcl", "FOLDER/none",
+    "0" * 64, "ff" * 32])
+ENV_COMMANDS = {  # the variable: the command lines that read it ({f}: the folder)
+    "MCL_CACHE_DIR": [["check", "{f}/m.mcl"]],
+    "XDG_CACHE_HOME": [["check", "{f}/m.mcl"]],
+    "MCL_DOCS_URI": [["check", "{f}/m.mcl", "--format", "sarif"]],
+    "MCL_MAVLINK_KEY": [["run", "{f}/m.mcl", "--vehicle", "mavlink:udpin:127.0.0.1:14550",
+                         "--log", "{f}/run.jsonl"],
+                        ["vehicle", "--mavlink", "udpout:127.0.0.1:14550"]],
+    "MCL_ZENOH_PASSWORD": [["monitor", "--zenoh", "tcp/127.0.0.1:7447", "--user", "x"],
+                           ["run", "{f}/m.mcl", "--vehicle", "zenoh:tcp/127.0.0.1:7447",
+                            "--user", "x", "--log", "{f}/run.jsonl"]],
+}
+
+
+def assert_env_clear(command: str, argv: list[str], variable: str, code: int,
+                     err: str) -> None:
+    """As :func:`assert_one_line`, the line may also start with the variable's name."""
+    assert_one_line(command, argv, code, err, (f"${variable}", variable))
+
+
+@pytest.mark.slow
+@settings(FUZZ, max_examples=60)
+@given(variable=st.sampled_from(sorted(ENV_COMMANDS)), value=ENV_VALUES, data=st.data())
+def test_fuzz_the_environment_the_commands_read(fuzz_folder: Path,  # noqa: F811
+                                               variable: str, value: str,
+                                               data: st.DataObject) -> None:
+    with inside(fuzz_folder) as folder:
+        (folder / "m.mcl").write_text(SMALL, "utf-8")
+        argv = [a.format(f=folder) for a in data.draw(st.sampled_from(ENV_COMMANDS[variable]))]
+        with mock.patch.dict(os.environ, {variable: value.replace("FOLDER", str(folder))}):
+            code, _, err = call(mcl.main, argv)
+        assert_env_clear(argv[0], argv, variable, code, err)
+        event(f"{variable} exit {code}")
+
+
+@pytest.mark.parametrize("value", ["\udcff\udcfe", "a\nb", " ", "x" * (2 << 20)])
+def test_a_zenoh_password_in_the_environment_is_checked_as_a_file_s_is(value: str) -> None:
+    # found by the fuzz: a password that is not UTF-8 reached Zenoh, whose refusal was a
+    # traceback (exit 1); a two-line one was taken whole
+    argv = ["monitor", "--zenoh", "tcp/127.0.0.1:7447", "--user", "x"]
+    with mock.patch.dict(os.environ, {"MCL_ZENOH_PASSWORD": value}):
+        code, _, err = call(mcl.main, argv)
+    assert code == 2, err
+    assert err.startswith("mcl monitor: error: $MCL_ZENOH_PASSWORD: "), err
+    with mock.patch.dict(os.environ, {"MCL_ZENOH_PASSWORD": " secret "}):
+        assert call(mcl.main, argv)[0] == 0  # the session would open: Accepted
+
+
+def test_the_zenoh_lease_from_the_environment_stays_within_an_hour() -> None:
+    # found by the fuzz: 4,000 digits reached Zenoh, which refused them as "--zenoh ...:
+    # error: error parsing number: too large"; 10**20 ms was taken (no peer ever lost)
+    assert lease_ms("9" * 4000) == MAX_LEASE_MS == lease_ms(str(10**20))
+    assert lease_ms("5000") == 5000
+    assert lease_ms("-5") == lease_ms("") == lease_ms(None) == lease_ms("x") == MIN_LEASE_MS
+    assert lease_ms("9" * 5000) == lease_ms("\udcff") == MIN_LEASE_MS
+
+
+# -- mcl vehicle and mcl monitor as real processes ---------------------------------------------
+SPEEDS = st.sampled_from(["10", "1000", "0.001", "1e308", "nan", "-1", "x"])
+PROCESS_ENV = {  # what the processes read when they start, and a hostile value of each
+    "MCL_ZENOH_LEASE_MS": st.sampled_from(["", "-5", "9" * 4000, str(10**20), "\udcff",
+                                           "5000"]),
+    "MCL_STATE_DIR": st.sampled_from(["", "/proc/version", "/dev/full/x", "\udcff",
+                                      "x" * 5000, "state"]),
+    "MCL_MAVLINK_KEY": st.sampled_from(["", " ", "\udcff", "ab" * 32, "x" * 70_000]),
+}
+
+
+@st.composite
+def process_argv(draw: st.DrawFn) -> tuple[list[str], dict[str, str]]:
+    """``mcl vehicle`` (Zenoh or MAVLink, on a port of its own on loopback) or ``mcl
+    monitor``, with a hostile option value or environment."""
+    command = draw(st.sampled_from(["zenoh", "mavlink", "monitor"]))
+    if command == "zenoh":
+        argv = ["vehicle", "--zenoh", f"tcp/127.0.0.1:{free_tcp_port()}", "--speed",
+                draw(SPEEDS), "--name", draw(st.sampled_from(["auv", "a/b", "", "x" * 70]))]
+        names = ["MCL_ZENOH_LEASE_MS"]
+    elif command == "mavlink":
+        argv = ["vehicle", "--mavlink", f"udpout:127.0.0.1:{free_udp_port()}", "--speed",
+                draw(SPEEDS), *draw(st.sampled_from([[], ["--signing-key", "key"],
+                                                     ["--signing-key", "/dev/zero"],
+                                                     ["--require-signing"]]))]
+        names = ["MCL_STATE_DIR", "MCL_MAVLINK_KEY"]
+    else:
+        argv = ["monitor", "--zenoh", f"tcp/127.0.0.1:{free_tcp_port()}", "--timeout",
+                draw(st.sampled_from(["0.5", "nan", "-1", "1e400"]))]
+        names = ["MCL_ZENOH_LEASE_MS"]
+    env = {name: draw(PROCESS_ENV[name]) for name in names if draw(st.booleans())}
+    return argv, env
+
+
+@pytest.mark.slow
+@settings(FUZZ, max_examples=10)
+@given(case=process_argv())
+def test_fuzz_mcl_vehicle_and_monitor_as_processes(tmp_path: Path,
+                                                   case: tuple[list[str], dict[str, str]]
+                                                   ) -> None:
+    # a real process, because the Zenoh lease is read once, when aal.zenoh is imported, and
+    # the signing state is kept by the vehicle server the in-process fuzz replaces
+    argv, env = case
+    (tmp_path / "key").write_text("a passphrase\n", "utf-8")
+    with started([str(BIN / "mcl"), *argv], ready=None, env={**subprocess_env(), **env},
+                 cwd=tmp_path) as proc:
+        line = first_line(proc, budget(3))  # "vehicle auv ready on ...", or nothing: refused
+        if line and "ready" in line:  # accepted: it stops on Ctrl-C, with status 0
+            proc.send_signal(signal.SIGINT)
+        code = proc.wait(timeout=budget(3))
+        err = proc.stderr.read() if proc.stderr else ""
+    names = tuple(f"${name}" for name in env)
+    if argv[0] == "monitor" and code == 4:  # no vehicle on that port: said in two lines
+        assert "no vehicle" in err and "Traceback" not in err, err
+    else:
+        assert_one_line(argv[0], argv, code, err, names)
+    event(f"{argv[0]} {argv[1]} exit {code}")
+
+
+@pytest.mark.parametrize("value", ["\udcff\udcfe", "x" * 70_000])
+def test_a_signing_key_in_the_environment_is_named_when_refused(value: str) -> None:
+    # found by the fuzz: a key that is not UTF-8 was refused as "mcl vehicle: error: 'utf-8'
+    # codec can't encode characters ...", naming nothing; 70,000 bytes were taken as a key
+    argv = ["vehicle", "--mavlink", "udpout:127.0.0.1:14550"]
+    with mock.patch.dict(os.environ, {"MCL_MAVLINK_KEY": value}):
+        code, _, err = call(mcl.main, argv)
+    assert code == 2, err
+    assert err.startswith("mcl vehicle: error: $MCL_MAVLINK_KEY: "), err
+    with mock.patch.dict(os.environ, {"MCL_MAVLINK_KEY": "a passphrase"}):
+        assert call(mcl.main, argv)[0] == 0  # the vehicle would start: Accepted
