@@ -35,7 +35,7 @@ import re
 import shutil
 import signal
 import tarfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from unittest import mock
@@ -45,7 +45,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from aal.zenoh import MAX_LEASE_MS, MIN_LEASE_MS, lease_ms
-from app import mcl, pnml_report
+from app import mcl, mclc, pnml_report
 from petri.execution.runlog import GENESIS, chain
 from tests.app.test_bad_input import (  # noqa: F401 - fuzz_folder is a fixture
     PARAMS, SMALL, Accepted, accepted, assert_clear, call, fuzz_folder, inside, mutated)
@@ -90,7 +90,7 @@ def mutated_lines(draw: st.DrawFn, data: bytes) -> bytes:
                                     "number", "cut"]))
         i = draw(st.integers(0, len(lines) - 1))
         line = lines[i]
-        if how == "flip":
+        if how == "flip" and line:
             at = draw(st.integers(0, len(line) - 1))
             line = line[:at] + bytes([line[at] ^ (1 << draw(st.integers(0, 7)))]) + \
                 line[at + 1:]
@@ -509,3 +509,43 @@ def test_a_signing_key_in_the_environment_is_named_when_refused(value: str) -> N
     assert err.startswith("mcl vehicle: error: $MCL_MAVLINK_KEY: "), err
     with mock.patch.dict(os.environ, {"MCL_MAVLINK_KEY": "a passphrase"}):
         assert call(mcl.main, argv)[0] == 0  # the vehicle would start: Accepted
+
+
+def test_an_empty_mcap_path_is_named_as_given(fuzz_folder: Path) -> None:  # noqa: F811
+    # found by the fuzz: Path("") is ".", so "--mcap ''" was refused as ".: error: ... is a
+    # directory", naming a folder the user never gave
+    argv = ["export", str(fuzz_folder / "seed.jsonl"), "--mcap", ""]
+    code, _, err = call(mcl.main, argv)
+    assert code == 2, err
+    assert err.startswith("--mcap '': error: "), err
+
+
+@pytest.mark.parametrize("main", [pnml_report.main, mclc.main])
+def test_a_pnml_in_an_unknown_encoding_is_invalid_input(fuzz_folder: Path,  # noqa: F811
+                                                        main: Callable[[list[str]], int]
+                                                        ) -> None:
+    # found by the fuzz: expat raised LookupError for encoding='tf-8': exit 3
+    with inside(fuzz_folder) as folder:
+        net = folder / "net.pnml"
+        net.write_bytes((fuzz_folder / "seed.pnml").read_bytes().replace(
+            b"encoding='utf-8'", b"encoding='tf-8'", 1))
+        assert b"encoding='tf-8'" in net.read_bytes()
+        code, _, err = call(main, [str(net)])
+        assert code == 2, err
+        assert err.startswith(f"{net}:1:1: error: invalid XML: unknown encoding: tf-8"), err
+
+
+def test_a_rechained_log_without_a_field_its_kind_needs_is_not_exported(
+        fuzz_folder: Path) -> None:  # noqa: F811
+    # found by the fuzz: a 'fire' record without 'transition', the chain recomputed, passed
+    # the verification and ended mcl export in a KeyError (exit 3); replay said not conformant
+    with inside(fuzz_folder) as folder:
+        log = folder / "edited.jsonl"
+        log.write_bytes(rechained((fuzz_folder / "seed.jsonl").read_bytes().replace(
+            b'"transition":', b'"x":', 1)))
+        argv = ["export", str(log), "--mcap", str(folder / "out.mcap")]
+        code, _, err = call(mcl.main, argv)
+        assert code == 2, err
+        assert re.match(rf"{re.escape(str(log))}:\d+:1: error: a 'fire' record needs "
+                        r"'transition' \(str\), not None$", err.splitlines()[0]), err
+        assert not (folder / "out.mcap").exists()
