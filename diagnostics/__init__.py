@@ -8,7 +8,12 @@ showing a traceback (which only ``--debug`` shows).
 
 from __future__ import annotations
 
+import errno
+import os
+import select
+import stat
 from dataclasses import dataclass, field
+from typing import IO
 
 
 @dataclass(frozen=True)
@@ -167,10 +172,28 @@ def read_limited(path: str, limit: int, what: str) -> bytes:
     return data
 
 
+FIFO_WAIT = 5.0  # s: the longest wait for a named pipe's first bytes
+
+
+def open_input(path: str) -> IO[bytes]:
+    """``path`` opened to read. A named pipe (``mclc <(make-mission)``, ``/dev/stdin``) is
+    waited on for at most :data:`FIFO_WAIT` s for its first bytes: one that nobody writes to
+    is refused (TimeoutError, an OSError) instead of hanging the command."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        if stat.S_ISFIFO(os.fstat(fd).st_mode) and \
+                not select.select([fd], [], [], FIFO_WAIT)[0]:
+            raise TimeoutError(errno.ETIMEDOUT, f"a named pipe nobody wrote to within "
+                               f"{FIFO_WAIT:g} s")
+        os.set_blocking(fd, True)
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise
+
+
 def read_source(path: str) -> Source:
     """Read a text file for parsing, turning every way it can go wrong into an MclError."""
-    import os
-
     if not os.path.exists(path):
         raise file_error(path, "no such file", "check the path; missions usually end in .mcl",
                          code="missing-file")
@@ -178,7 +201,7 @@ def read_source(path: str) -> Source:
         raise file_error(path, "is a directory, not a file", "give the path of a file",
                          code="directory")
     try:
-        with open(path, "rb") as f:
+        with open_input(path) as f:
             data = f.read(8 * 1024 * 1024 + 1)
     except OSError as exc:
         raise file_error(path, f"cannot be read: {exc.strerror}",

@@ -44,6 +44,7 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
+import diagnostics
 from aal.zenoh import MAX_LEASE_MS, MIN_LEASE_MS, lease_ms
 from app import mcl, mclc, pnml_report
 from petri.execution.runlog import GENESIS, chain
@@ -549,3 +550,49 @@ def test_a_rechained_log_without_a_field_its_kind_needs_is_not_exported(
         assert re.match(rf"{re.escape(str(log))}:\d+:1: error: a 'fire' record needs "
                         r"'transition' \(str\), not None$", err.splitlines()[0]), err
         assert not (folder / "out.mcap").exists()
+
+
+@pytest.fixture()
+def fifo(tmp_path: Path) -> Iterator[Path]:
+    """A named pipe nobody opens, the wait for a named pipe's first bytes cut to 0.2 s."""
+    path = tmp_path / "fifo"
+    os.mkfifo(path)
+    (tmp_path / "m.mcl").write_text(SMALL, "utf-8")
+    with mock.patch.object(diagnostics, "FIFO_WAIT", 0.2):
+        yield path
+
+
+@pytest.mark.parametrize("make", [
+    lambda f: ["fmt", str(f)], lambda f: ["check", str(f)],
+    lambda f: ["check", str(f.parent / "m.mcl"), "--params", str(f)],
+    lambda f: ["replay", str(f.parent / "run.jsonl"), str(f)],
+])
+def test_a_named_pipe_nobody_writes_to_is_refused_not_waited_on(
+        fifo: Path, make: Callable[[Path], list[str]]) -> None:
+    # found by probing the commands' files: reading a FIFO without a writer hung for ever
+    if make(fifo)[0] == "replay":
+        code, _, err = call(mcl.main, ["run", str(fifo.parent / "m.mcl"), "--vehicle",
+                                       "script:/dev/null", "--log",
+                                       str(fifo.parent / "run.jsonl"), "--quiet"])
+        assert code == 0, err
+    argv = make(fifo)
+    code, _, err = call(mcl.main, argv)
+    assert code == 2, err
+    assert err.startswith(f"{fifo}:1:1: error: cannot be read: a named pipe nobody wrote to "
+                          "within 0.2 s"), err
+
+
+@pytest.mark.parametrize("make", [
+    lambda f: ["run", str(f.parent / "m.mcl"), "--vehicle", "script:/dev/null", "--log",
+               str(f)],
+    lambda f: ["check", str(f.parent / "m.mcl"), "--no-verify", "--net-json", str(f)],
+])
+def test_a_named_pipe_nobody_reads_is_refused_as_an_output(
+        fifo: Path, make: Callable[[Path], list[str]]) -> None:
+    # found by probing: opening a FIFO without a reader to write waited for ever, and a
+    # SIGTERM then found the run log's writer waiting again
+    argv = make(fifo)
+    code, _, err = call(mcl.main, argv)
+    assert code == 2, err
+    assert err.startswith(f"{fifo}: error: cannot write it ("), err
+    assert "a named pipe nobody reads" in err.splitlines()[0], err
