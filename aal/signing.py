@@ -57,7 +57,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from diagnostics import MclError, Span
+from diagnostics import MclError, Span, open_input
 
 ENV_KEY = "MCL_MAVLINK_KEY"
 ENV_STATE_DIR = "MCL_STATE_DIR"
@@ -110,7 +110,7 @@ def load_key(path: str | None) -> bytes | None:
     """The signing key from the file ``path``, else from ``$MCL_MAVLINK_KEY``, else None."""
     if path is not None:
         try:
-            with open(path, "rb") as f:  # with a limit: --signing-key /dev/zero
+            with open_input(path) as f:  # with a limit: --signing-key /dev/zero
                 raw = f.read(MAX_KEY_BYTES + 1)
             if len(raw) > MAX_KEY_BYTES:
                 raise _refuse(path, f"larger than {MAX_KEY_BYTES:,} bytes: not a signing key")

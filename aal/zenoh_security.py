@@ -27,6 +27,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from diagnostics import open_input
+
 ROLES = ("vehicle", "player", "observer")
 PASSWORD_ENV = "MCL_ZENOH_PASSWORD"
 DEFAULT_PLAYER = "player"  # the user name / certificate common name allowed to put actions
@@ -179,7 +181,7 @@ def read_small(option: str, name: str, encoding: str = "utf-8", errors: str = "s
     """The text of the file ``name`` given to ``option``, read with a size limit
     (``--users /dev/zero`` is refused, not read for ever); OSError, UnicodeDecodeError or a
     ValueError naming the option."""
-    with open(name, "rb") as f:
+    with open_input(name) as f:  # a named pipe nobody writes to: refused within 5 s
         data = f.read(MAX_FILE_BYTES + 1)
     if len(data) > MAX_FILE_BYTES:
         raise ValueError(f"{option} {name}: larger than {MAX_FILE_BYTES:,} bytes: not what "

@@ -155,7 +155,7 @@ def read_limited(path: str, limit: int, what: str) -> bytes:
     read for ever): an :class:`MclError` if it is missing, unreadable or larger than ``limit``
     bytes (``what``: what the file should be, for the message)."""
     try:
-        with open(path, "rb") as f:
+        with open_input(path) as f:
             data = f.read(limit + 1)
     except FileNotFoundError:
         raise file_error(path, "no such file", f"give the path of {what}",
@@ -181,7 +181,10 @@ def open_input(path: str) -> IO[bytes]:
     is refused (TimeoutError, an OSError) instead of hanging the command."""
     fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     try:
-        if stat.S_ISFIFO(os.fstat(fd).st_mode) and \
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), path)
+        if stat.S_ISFIFO(mode) and \
                 not select.select([fd], [], [], FIFO_WAIT)[0]:
             raise TimeoutError(errno.ETIMEDOUT, f"a named pipe nobody wrote to within "
                                f"{FIFO_WAIT:g} s")

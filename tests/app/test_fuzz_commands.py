@@ -596,3 +596,21 @@ def test_a_named_pipe_nobody_reads_is_refused_as_an_output(
     assert code == 2, err
     assert err.startswith(f"{fifo}: error: cannot write it ("), err
     assert "a named pipe nobody reads" in err.splitlines()[0], err
+
+
+@pytest.mark.parametrize("make", [
+    lambda f: ["run", str(f.parent / "m.mcl"), "--vehicle", f"script:{f}", "--log",
+               str(f.parent / "r.jsonl")],
+    lambda f: ["vehicle", "--mavlink", "udpout:127.0.0.1:14550", "--signing-key", str(f)],
+    lambda f: ["vehicle", "--zenoh", "tcp/127.0.0.1:7447", "--users", str(f)],
+    lambda f: ["monitor", "--zenoh", "tcp/127.0.0.1:7447", "--user", "x", "--password-file",
+               str(f)],
+])
+def test_a_named_pipe_nobody_writes_to_is_refused_as_any_file_a_command_reads(
+        fifo: Path, make: Callable[[Path], list[str]]) -> None:
+    # the scripted vehicle, a signing key, a user list, a password file hung the same way
+    argv = make(fifo)
+    code, _, err = call(mcl.main, argv)
+    assert code == 2, err
+    assert_one_line(argv[0], argv, code, err)
+    assert "a named pipe nobody wrote to within 0.2 s" in err.splitlines()[0], err
