@@ -12,7 +12,8 @@ and one line, never a traceback, exit 3 nor a hang.
   :class:`Accepted` instead: no server is left running);
 - ``mcl fmt`` on mutated missions, ``--check`` and ``--diff``;
 - ``python -m app.pnml_report`` on mutated PNML and on contest archives whose entries are
-  mutated (names with ``../``, links, devices, FIFOs, junk bytes);
+  mutated (names with ``../``, links, devices, FIFOs, junk bytes) or whose own bytes are
+  flipped or cut;
 - the environment the commands read (``MCL_STATE_DIR``, ``MCL_CACHE_DIR``,
   ``XDG_CACHE_HOME``, ``MCL_MAVLINK_KEY``, ``MCL_ZENOH_PASSWORD``, ``MCL_DOCS_URI``): empty,
   huge, not UTF-8 (a surrogate escape, which is how Python holds such bytes);
@@ -20,6 +21,9 @@ and one line, never a traceback, exit 3 nor a hang.
   its own and stopped at the end of its example, with hostile options and
   ``MCL_ZENOH_LEASE_MS`` (read once, when the module is imported: a subprocess is the only
   way to give it a value).
+
+What the fuzz and the probing around it found is kept below it as plain tests (among them
+named pipes nobody writes to or reads, given as any file a command reads or writes).
 
 Everything but the last runs the command's ``main(argv)`` in process (tests/app/
 test_bad_input.py's :func:`call`): a subprocess per example costs a second of start-up, and
@@ -280,6 +284,12 @@ def archive(draw: st.DrawFn, folder: Path, pnml: bytes) -> Path:
             add(name, data=body)
         if how == "two models":
             add("N/model.pnml", data=body)
+    if draw(st.integers(0, 3)) == 0:  # the archive's own bytes: flipped, or cut
+        data = bytearray(path.read_bytes())
+        at = draw(st.integers(0, len(data) - 1))
+        data[at] ^= 1 << draw(st.integers(0, 7))
+        cut = draw(st.sampled_from([len(data), len(data) // 2, 10]))
+        path.write_bytes(bytes(data[:cut]))
     return path
 
 
