@@ -57,7 +57,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from diagnostics import MclError, Span
+from diagnostics import MclError, Span, open_input
 
 ENV_KEY = "MCL_MAVLINK_KEY"
 ENV_STATE_DIR = "MCL_STATE_DIR"
@@ -94,7 +94,13 @@ def key_from_text(text: str, where: str) -> bytes:
         raise _refuse(where, "the signing key is empty")
     if _HEX_KEY.fullmatch(text):
         return bytes.fromhex(text)
-    return hashlib.sha256(text.encode("utf-8")).digest()
+    try:  # from the environment, bytes that are not UTF-8 come as surrogates
+        data = text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise _refuse(where, "the signing key is not UTF-8 text") from None
+    if len(data) > MAX_KEY_BYTES:
+        raise _refuse(where, f"larger than {MAX_KEY_BYTES:,} bytes: not a signing key")
+    return hashlib.sha256(data).digest()
 
 
 MAX_KEY_BYTES = 64 * 1024  # a signing key file: 64 hex digits, or a passphrase
@@ -104,7 +110,7 @@ def load_key(path: str | None) -> bytes | None:
     """The signing key from the file ``path``, else from ``$MCL_MAVLINK_KEY``, else None."""
     if path is not None:
         try:
-            with open(path, "rb") as f:  # with a limit: --signing-key /dev/zero
+            with open_input(path) as f:  # with a limit: --signing-key /dev/zero
                 raw = f.read(MAX_KEY_BYTES + 1)
             if len(raw) > MAX_KEY_BYTES:
                 raise _refuse(path, f"larger than {MAX_KEY_BYTES:,} bytes: not a signing key")

@@ -39,11 +39,21 @@ from aal.zenoh_security import apply as apply_security
 log = logging.getLogger(__name__)
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
-LEASE_MS = 1000  # transport lease: a silent peer is declared gone after this long
-try:  # $MCL_ZENOH_LEASE_MS: a longer lease for a slow or busy link (the tests on a loaded machine)
-    LEASE_MS = max(LEASE_MS, int(os.environ.get("MCL_ZENOH_LEASE_MS", LEASE_MS)))
-except ValueError:
-    pass
+MIN_LEASE_MS = 1000  # transport lease: a silent peer is declared gone after this long
+MAX_LEASE_MS = 3_600_000  # the longest lease taken: an hour (Zenoh refuses 20 digits)
+
+
+def lease_ms(text: str | None) -> int:
+    """The lease ``$MCL_ZENOH_LEASE_MS`` asks for (a longer one for a slow or busy link, the
+    tests on a loaded machine), within 1 s to an hour; the shortest if it is not an integer."""
+    try:
+        asked = int(text) if text else MIN_LEASE_MS
+    except ValueError:  # not an integer, or past Python's 4,300 digits
+        asked = MIN_LEASE_MS
+    return min(max(asked, MIN_LEASE_MS), MAX_LEASE_MS)
+
+
+LEASE_MS = lease_ms(os.environ.get("MCL_ZENOH_LEASE_MS"))
 MAX_EXTRAPOLATION = 0.25  # wall s: how far the player's clock runs past the last clock message
 CLOSE_TIMEOUT = 1.0  # wall s: the longest wait for a session to close
 CLIENT_CONNECT_MS = 2000  # a client (mcl monitor) gives up opening after this long

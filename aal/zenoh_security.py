@@ -27,6 +27,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from diagnostics import open_input
+
 ROLES = ("vehicle", "player", "observer")
 PASSWORD_ENV = "MCL_ZENOH_PASSWORD"
 DEFAULT_PLAYER = "player"  # the user name / certificate common name allowed to put actions
@@ -109,7 +111,7 @@ def for_role(role: str, endpoint: str, *, user: str | None = None,
         if password_file:
             password = read_password(password_file)
         elif os.environ.get(PASSWORD_ENV):
-            password = os.environ[PASSWORD_ENV]
+            password = env_password(os.environ[PASSWORD_ENV])
         else:
             raise ValueError(f"--user {user} needs a password: --password-file FILE or "
                              f"the environment variable {PASSWORD_ENV}")
@@ -179,7 +181,7 @@ def read_small(option: str, name: str, encoding: str = "utf-8", errors: str = "s
     """The text of the file ``name`` given to ``option``, read with a size limit
     (``--users /dev/zero`` is refused, not read for ever); OSError, UnicodeDecodeError or a
     ValueError naming the option."""
-    with open(name, "rb") as f:
+    with open_input(name) as f:  # a named pipe nobody writes to: refused within 5 s
         data = f.read(MAX_FILE_BYTES + 1)
     if len(data) > MAX_FILE_BYTES:
         raise ValueError(f"{option} {name}: larger than {MAX_FILE_BYTES:,} bytes: not what "
@@ -211,6 +213,24 @@ def read_password(name: str) -> str:
     if not password:
         raise ValueError(f"--password-file {name}: empty; put the password on its first line")
     return password
+
+
+def env_password(text: str) -> str:
+    """The password in ``$MCL_ZENOH_PASSWORD``, checked as a password file's first line is:
+    UTF-8 text (Python holds bytes that are not as surrogates, which Zenoh refuses with a
+    traceback), one line, at most :data:`MAX_FILE_BYTES`; ValueError naming the variable."""
+    where = f"${PASSWORD_ENV}"
+    try:
+        size = len(text.encode("utf-8"))
+    except UnicodeEncodeError:
+        raise ValueError(f"{where}: not UTF-8 text") from None
+    if size > MAX_FILE_BYTES:
+        raise ValueError(f"{where}: longer than {MAX_FILE_BYTES:,} bytes: not a password")
+    if any(c in text for c in "\r\n\x00"):
+        raise ValueError(f"{where}: more than one line: give the password alone")
+    if not text.strip():
+        raise ValueError(f"{where}: only spaces: give the password")
+    return text.strip()
 
 
 def read_users(name: str) -> tuple[str, ...]:

@@ -28,8 +28,10 @@ from mcl import parser, tasklib
 from mission.exits import Exit
 from mission.mcap_export import Run, Track, Written, camera_index, write_fleet
 from mosaic.images import images_folder
-from petri.execution.runlog import read_log, verify
+from petri.execution.replay import malformed
+from petri.execution.runlog import LogError, read_log, verify
 
+from app import arguments
 from app.guard import guarded
 from app.mclc import OutputError, check_output
 
@@ -39,7 +41,7 @@ MOSAIC_SUFFIXES = (".mosaic.png", ".coverage.png", ".mosaic.json")
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="mcl export", description="Write a run log, verified, "
+    p = arguments.Parser(prog="mcl export", description="Write a run log, verified, "
                                 "as an MCAP file that Foxglove opens (docs/MCAP.md).")
     p.add_argument("logs", metavar="RUN.jsonl", nargs="+",
                    help="a run log; several (a fleet's): each vehicle under /NAME, its log's "
@@ -58,6 +60,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
+    check_output(args.mcap, "--mcap")  # as given: Path("") would be the folder "."
     logs = [Path(log) for log in args.logs]
     if len(logs) == 1:
         written = export(logs[0], Path(args.mcap), images=not args.no_images)
@@ -99,6 +102,10 @@ def _run(log: Path, images: bool) -> Run:
     """A verified run log with what its run left beside it."""
     records = read_log(log)
     verify(records, log)
+    wrong = malformed(records)  # a field its kind needs missing, or of the wrong type
+    if wrong is not None:
+        raise LogError(f"{log}:{wrong.line}: {wrong.reason}", wrong.line, wrong.reason,
+                       path=log, invalid=True)
     pictures, indexed = camera_index(images_folder(log))
     return Run(records, indexed, pictures if images else [], attachments(records[0], log))
 

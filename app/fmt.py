@@ -25,12 +25,13 @@ from diagnostics import Source, file_error, read_source
 from mcl.formatter import format_source
 from mcl.tasks_formatter import format_library_source
 
+from app import arguments
 from app.guard import guarded
 from mission.exits import Exit
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = arguments.Parser(
         prog="mcl fmt",
         description="Rewrite MCL missions and task libraries in the one canonical layout, "
                     "comments kept "

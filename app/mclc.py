@@ -9,8 +9,10 @@ property could not be established. With several files, the worst (:data:`SEVERIT
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import os
+import stat
 import sys
 import traceback
 from collections.abc import Callable
@@ -123,6 +125,18 @@ def write_output(path: str, option: str, write: Callable[[str], None]) -> None:
         raise OutputError(path, option, exc.strerror or str(exc)) from None
 
 
+def unread_pipe(path: Path) -> bool:
+    """Whether ``path`` is a named pipe that no process has open to read (opening it to write
+    would wait for one for ever); ``/dev/stdout`` into a pipe has its reader."""
+    try:
+        if not stat.S_ISFIFO(path.stat().st_mode):
+            return False
+        os.close(os.open(path, os.O_WRONLY | os.O_NONBLOCK))
+    except OSError as exc:
+        return exc.errno == errno.ENXIO  # the pipe has no reader
+    return False
+
+
 def check_output(path: str, option: str) -> None:
     """Refuse, before any work, an output path that cannot be a file: empty, a directory, in
     a folder that does not exist or is not a folder."""
@@ -131,6 +145,8 @@ def check_output(path: str, option: str) -> None:
     target = Path(path)
     if target.is_dir():
         raise OutputError(path, option, "is a directory")
+    if unread_pipe(target):
+        raise OutputError(path, option, "a named pipe nobody reads: writing would wait for ever")
     folder = target.parent
     if not folder.exists():
         raise OutputError(path, option, f"no folder {str(folder)!r}")

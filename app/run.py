@@ -49,7 +49,7 @@ from petri.execution.signing import Signer
 
 from app import arguments, foxglove, vehicles
 from app.guard import guarded
-from app.mclc import OutputError, check_output
+from app.mclc import OutputError, check_output, unread_pipe
 from app.monitor import task_detail
 from app.safe_exit import Output, ReportCut, Stops
 
@@ -131,6 +131,9 @@ def _check_log(path: Path) -> None:
     """The run log's path, checked before the run: its folder is made if missing."""
     if path.is_dir():
         raise OutputError(str(path), "--log", "is a directory")
+    if unread_pipe(path):
+        raise OutputError(str(path), "--log", "a named pipe nobody reads: writing would wait "
+                          "for ever")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -8,7 +8,12 @@ showing a traceback (which only ``--debug`` shows).
 
 from __future__ import annotations
 
+import errno
+import os
+import select
+import stat
 from dataclasses import dataclass, field
+from typing import IO
 
 
 @dataclass(frozen=True)
@@ -32,6 +37,19 @@ class Span:
         return cls(file, 0, 0)
 
 
+UNPRINTABLE = {c: "\N{REPLACEMENT CHARACTER}" for c in (*range(0x20), 0x7F, *range(0x80, 0xA0),
+                                                     0x2028, 0x2029, *range(0x202A, 0x202F),
+                                                     *range(0x2066, 0x206A)) if c != 0x09}
+
+
+def printable(line: str) -> str:
+    """A line of a user's file as a message may quote it: each control character, line or
+    paragraph separator and bidirectional override (which a terminal would act on: a new
+    line, an escape sequence, text shown reversed) one replacement character, so that the
+    quote stays one line and its caret stays under the same column."""
+    return line.translate(UNPRINTABLE)
+
+
 @dataclass(frozen=True)
 class Diagnostic:
     severity: str  # "error" | "warning" | "note"
@@ -45,8 +63,9 @@ class Diagnostic:
         where = f"{self.span}: " if self.span else ""
         lines = [f"{where}{self.severity}: {self.message}"]
         if self.span and self.source_line:
-            text = self.source_line.rstrip("\n").expandtabs(4)
-            prefix = self.source_line[: max(self.span.col - 1, 0)].expandtabs(4)
+            shown = printable(self.source_line.rstrip("\n"))
+            text = shown.expandtabs(4)
+            prefix = shown[: max(self.span.col - 1, 0)].expandtabs(4)
             width = 1
             if self.span.end_line == self.span.line and self.span.end_col > self.span.col:
                 width = self.span.end_col - self.span.col
@@ -136,7 +155,7 @@ def read_limited(path: str, limit: int, what: str) -> bytes:
     read for ever): an :class:`MclError` if it is missing, unreadable or larger than ``limit``
     bytes (``what``: what the file should be, for the message)."""
     try:
-        with open(path, "rb") as f:
+        with open_input(path) as f:
             data = f.read(limit + 1)
     except FileNotFoundError:
         raise file_error(path, "no such file", f"give the path of {what}",
@@ -153,10 +172,31 @@ def read_limited(path: str, limit: int, what: str) -> bytes:
     return data
 
 
+FIFO_WAIT = 5.0  # s: the longest wait for a named pipe's first bytes
+
+
+def open_input(path: str) -> IO[bytes]:
+    """``path`` opened to read. A named pipe (``mclc <(make-mission)``, ``/dev/stdin``) is
+    waited on for at most :data:`FIFO_WAIT` s for its first bytes: one that nobody writes to
+    is refused (TimeoutError, an OSError) instead of hanging the command."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), path)
+        if stat.S_ISFIFO(mode) and \
+                not select.select([fd], [], [], FIFO_WAIT)[0]:
+            raise TimeoutError(errno.ETIMEDOUT, f"a named pipe nobody wrote to within "
+                               f"{FIFO_WAIT:g} s")
+        os.set_blocking(fd, True)
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise
+
+
 def read_source(path: str) -> Source:
     """Read a text file for parsing, turning every way it can go wrong into an MclError."""
-    import os
-
     if not os.path.exists(path):
         raise file_error(path, "no such file", "check the path; missions usually end in .mcl",
                          code="missing-file")
@@ -164,7 +204,7 @@ def read_source(path: str) -> Source:
         raise file_error(path, "is a directory, not a file", "give the path of a file",
                          code="directory")
     try:
-        with open(path, "rb") as f:
+        with open_input(path) as f:
             data = f.read(8 * 1024 * 1024 + 1)
     except OSError as exc:
         raise file_error(path, f"cannot be read: {exc.strerror}",

@@ -18,6 +18,7 @@ from lsprotocol import types
 from pygls import uris
 from pygls.lsp.server import LanguageServer
 
+from app import arguments
 from app.lsp import diagnostics, hover, navigation, outline, proofs
 from app.lsp.document import Document, analyse
 from app.lsp.locate import Found, at
@@ -268,7 +269,7 @@ def seconds(text: str) -> float:
 
 def main(argv: list[str] | None = None) -> int:
     """``mcl lsp``: serve one editor over standard input and output until it exits."""
-    p = argparse.ArgumentParser(prog="mcl lsp", description="The MCL language server, over "
+    p = arguments.Parser(prog="mcl lsp", description="The MCL language server, over "
                                 "standard input and output (docs/EDITORS.md).")
     p.add_argument("--stdio", action="store_true", help="accepted for editors that pass it "
                    "(standard input and output are the only transport)")

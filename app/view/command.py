@@ -25,13 +25,14 @@ from typing import Any
 from mcl.api import Compiled, compile_file
 from mission.exits import Exit
 
+from app import arguments
 from app.guard import guarded
 
 
 def _parser() -> argparse.ArgumentParser:
     from app import zenoh_options
 
-    p = argparse.ArgumentParser(prog="mcl view", usage="mcl view RUN.jsonl MISSION.mcl "
+    p = arguments.Parser(prog="mcl view", usage="mcl view RUN.jsonl MISSION.mcl "
                                 "[options]\n       mcl view --zenoh ENDPOINT MISSION.mcl "
                                 "[options]", description="Show a run of a mission in a "
                                 "browser: its tree with each block's state, the timeline, the "

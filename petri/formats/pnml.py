@@ -229,6 +229,9 @@ class _Reader:
             message = expat.ErrorString(exc.code)
             raise PnmlError(f"invalid XML: {message}", self.doc.path, exc.lineno,
                             exc.offset + 1) from None
+        except LookupError as exc:  # <?xml encoding="..."?> names one Python does not know
+            raise PnmlError(f"invalid XML: {exc}", self.doc.path,
+                            self.parser.CurrentLineNumber, 1) from None
         if self.doc.nets == 0:
             raise PnmlError("no <net> element: not a PNML file", self.doc.path)
         return self.doc
