@@ -23,8 +23,9 @@ import numpy as np
 from numba import get_num_threads, njit
 
 from petri.verification.explore_parallel import WIDE, expand_chunk, insert_chunk
-from petri.verification.numba_rows import (candidates, hash_row, lookup, new_table, prefetch,
-                                         rehash, store, too_full)
+from petri.verification.numba_rows import (NOT_ENABLED, OVER_TOKENS, candidates, fire_into,
+                                         hash_row, lookup, new_table, prefetch, rehash, store,
+                                         too_full)
 
 # -- the search ---------------------------------------------------------------------------
 # The hot loop (_expand) runs over arrays it never reallocates; when the next batch of markings
@@ -77,21 +78,12 @@ def _expand(i, n, e, wide, cells, words, parent, parent_t, keep, src, dst, tr, d
                 break
             for c in range(nc):
                 t = cand[c]
-                enabled = True
-                for a in range(in_ptr[t], in_ptr[t + 1]):
-                    if cells[i, in_place[a]] < in_w[a]:
-                        enabled = False
-                        break
-                if not enabled:
+                outcome = fire_into(i, t, cells, words, batch[b], batch_cells[b], in_ptr,
+                                  in_place, in_w, eff_ptr, eff_place, eff_delta, max_tokens)
+                if outcome == NOT_ENABLED:
                     continue
-                for k in range(n_words):
-                    batch[b, k] = words[i, k]
-                for a in range(eff_ptr[t], eff_ptr[t + 1]):
-                    value = np.int64(cells[i, eff_place[a]]) + eff_delta[a]
-                    if value > max_tokens:
-                        over_at, over_t = i, t
-                    batch_cells[b, eff_place[a]] = value
-                if over_at >= 0:
+                if outcome == OVER_TOKENS:
+                    over_at, over_t = i, t
                     break
                 h = hash_row(batch[b])
                 batch_h[b] = h

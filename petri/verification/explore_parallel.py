@@ -27,7 +27,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from petri.verification.numba_rows import candidates, hash_row, lookup, prefetch, store
+from petri.verification.numba_rows import (NOT_ENABLED, OVER_TOKENS, candidates, fire_into,
+                                         hash_row, lookup, prefetch, store)
 
 WIDE = 1024  # markings waiting to be expanded from which a chunk is expanded in parallel
 LAG = 32  # successors hashed (and their slots prefetched) before the first is looked up
@@ -63,21 +64,12 @@ def expand_chunk(starts, cells, words, table, buf_cells, buf, buf_h, buf_src, bu
                 break
             for c in range(nc):
                 t = cands[k, c]
-                enabled = True
-                for a in range(in_ptr[t], in_ptr[t + 1]):
-                    if cells[i, in_place[a]] < in_w[a]:
-                        enabled = False
-                        break
-                if not enabled:
+                outcome = fire_into(i, t, cells, words, buf[k, b], buf_cells[k, b], in_ptr,
+                                  in_place, in_w, eff_ptr, eff_place, eff_delta, max_tokens)
+                if outcome == NOT_ENABLED:
                     continue
-                for w in range(n_words):
-                    buf[k, b, w] = words[i, w]
-                for a in range(eff_ptr[t], eff_ptr[t + 1]):
-                    value = np.int64(cells[i, eff_place[a]]) + eff_delta[a]
-                    if value > max_tokens:
-                        stop, over_t = i, t
-                    buf_cells[k, b, eff_place[a]] = value
-                if stop != NO_STOP:
+                if outcome == OVER_TOKENS:
+                    stop, over_t = i, t
                     break
                 h = hash_row(buf[k, b])
                 buf_h[k, b] = h

@@ -174,3 +174,28 @@ def candidates(i, cells, words, per_word, rd_ptr, rd_t, sources, cand):
     else:
         cand[:nc] = np.sort(cand[:nc])
     return nc
+
+
+# What fire_into says of a transition at a marking.
+NOT_ENABLED, FIRED, OVER_TOKENS = 0, 1, 2
+
+
+@njit(cache=True, inline="always")
+def fire_into(i, t, cells, words, row, row_cells, in_ptr, in_place, in_w, eff_ptr, eff_place,
+              eff_delta, max_tokens):
+    """Marking ``i``'s successor by transition ``t`` into ``row`` (its words; ``row_cells``
+    the same memory as token counts): NOT_ENABLED (nothing written), FIRED, or OVER_TOKENS
+    (written, but some place would hold more than ``max_tokens``). The one firing rule of
+    both the sequential and the parallel search."""
+    for a in range(in_ptr[t], in_ptr[t + 1]):
+        if cells[i, in_place[a]] < in_w[a]:
+            return NOT_ENABLED
+    for w in range(words.shape[1]):
+        row[w] = words[i, w]
+    fired = FIRED
+    for a in range(eff_ptr[t], eff_ptr[t + 1]):
+        value = np.int64(cells[i, eff_place[a]]) + eff_delta[a]
+        if value > max_tokens:
+            fired = OVER_TOKENS
+        row_cells[eff_place[a]] = value
+    return fired
