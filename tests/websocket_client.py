@@ -4,6 +4,7 @@ Foxglove client does (a subprotocol, text and binary frames), with no library of
 from __future__ import annotations
 
 import base64
+import json
 import os
 import socket
 import struct
@@ -78,3 +79,18 @@ class WebSocket:
         except OSError:
             pass
         self.sock.close()
+
+
+def subscribe(ws: WebSocket, topics: list[str] | tuple[str, ...]) -> dict[str, int]:
+    """As a Foxglove client does (foxglove.sdk.v1): wait until the server has advertised every
+    one of ``topics``, then subscribe to them, subscription i to ``topics[i]``. Returns the
+    channel id of each topic."""
+    seen: dict[str, int] = {}
+    while not set(topics) <= set(seen):
+        opcode, payload = ws.receive()
+        message = json.loads(payload) if opcode == 1 else {}
+        if message.get("op") == "advertise":
+            seen.update({c["topic"]: c["id"] for c in message["channels"]})
+    ws.send_text(json.dumps({"op": "subscribe", "subscriptions": [
+        {"id": i, "channelId": seen[topic]} for i, topic in enumerate(topics)]}))
+    return seen

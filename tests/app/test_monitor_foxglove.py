@@ -18,7 +18,7 @@ import pytest
 from mission.foxglove_schemas import SCHEMAS
 from tests.support import (REPO, budget, free_endpoint, free_tcp_port, started, stop,
                            subprocess_env, write)
-from tests.websocket_client import WebSocket
+from tests.websocket_client import WebSocket, subscribe
 
 pytest.importorskip("foxglove", reason="foxglove-sdk is an optional extra (mcl-auv[foxglove])")
 pytest.importorskip("zenoh")
@@ -42,14 +42,7 @@ def subscribed(port: int) -> WebSocket:
             if time.monotonic() > deadline:
                 raise
             time.sleep(0.1)
-    seen: dict[str, int] = {}
-    while not set(TOPICS) <= set(seen):
-        opcode, payload = ws.receive()
-        message = json.loads(payload) if opcode == 1 else {}
-        if message.get("op") == "advertise":
-            seen.update({c["topic"]: c["id"] for c in message["channels"]})
-    ws.send_text(json.dumps({"op": "subscribe", "subscriptions": [
-        {"id": i, "channelId": seen[topic]} for i, topic in enumerate(TOPICS)]}))
+    subscribe(ws, TOPICS)
     return ws
 
 

@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 
 from tests.support import BIN, budget, free_tcp_port, subprocess_env, write
-from tests.websocket_client import WebSocket
+from tests.websocket_client import WebSocket, subscribe
 
 pytest.importorskip("foxglove", reason="foxglove-sdk is an optional extra (mcl-auv[foxglove])")
 
@@ -44,14 +44,7 @@ def test_a_client_follows_a_live_run(tmp_path: Path) -> None:
     got: dict[str, list[dict[str, Any]]] = {topic: [] for topic in TOPICS}
     try:
         ws = connect(port, proc, budget(10))
-        seen: dict[str, int] = {}
-        while not set(TOPICS) <= set(seen):
-            opcode, payload = ws.receive()
-            message = json.loads(payload) if opcode == 1 else {}
-            if message.get("op") == "advertise":
-                seen.update({c["topic"]: c["id"] for c in message["channels"]})
-        ws.send_text(json.dumps({"op": "subscribe", "subscriptions": [
-            {"id": i, "channelId": seen[topic]} for i, topic in enumerate(TOPICS)]}))
+        subscribe(ws, TOPICS)
         try:
             while True:  # until the run ends and its server closes
                 opcode, payload = ws.receive()
