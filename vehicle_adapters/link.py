@@ -92,11 +92,14 @@ class RemoteVehicle:
             if self._lost:
                 return
             t = self.vehicle_time_locked()
-            self._lost, self.lost_at, self.lost_reason = True, time.monotonic(), reason
-            self.set_clock_locked(t)
             event = EventMessage(self.next_seq_locked(), t, "Link", "lost", {"reason": reason})
+            # The event is in the inbox before ``lost`` reads true (``lost`` takes no lock):
+            # whoever sees ``lost`` finds Link.lost waiting in receive().
+            self.lost_at, self.lost_reason = time.monotonic(), reason
+            self.inbox.put(event)
+            self._lost = True
+            self.set_clock_locked(t)
         log.warning("link to the vehicle lost: %s", reason)
-        self.inbox.put(event)
 
     @property
     def lost(self) -> bool:
