@@ -54,11 +54,11 @@ class WallSample:
 @dataclass
 class Track:
     """The vehicle's true and estimated poses (pairs at the same instants), USBL fixes
-    (x, y, z, accepted) and the wall tracker's samples."""
+    (t, x, y, z, accepted) and the wall tracker's samples."""
 
     truth: list[Pose] = field(default_factory=list)
     estimate: list[Pose] = field(default_factory=list)
-    fixes: list[tuple[float, float, float, bool]] = field(default_factory=list)
+    fixes: list[tuple[float, float, float, float, bool]] = field(default_factory=list)
     wall: list[WallSample] = field(default_factory=list)
 
 
@@ -88,8 +88,8 @@ def track_of_survey(survey: Any) -> Track:
     """The track the simulated stack's survey kept (vehicle/world/survey.py): 5 poses a
     second, true and estimated, and every USBL fix."""
     headings = list(getattr(survey, "headings", []))
-    track = Track(fixes=[(float(x), float(y), float(z), bool(ok))
-                         for x, y, z, ok in survey.fixes])
+    track = Track(fixes=[(float(t), float(x), float(y), float(z), bool(ok))
+                         for t, x, y, z, ok in survey.fixes])
     for i, ((t, x, y, z), (ex, ey, ez)) in enumerate(zip(survey.truth, survey.estimate)):
         yaw, eyaw = headings[i] if i < len(headings) else (0.0, 0.0)
         track.truth.append(Pose(float(t), float(x), float(y), float(z), float(yaw)))
@@ -171,16 +171,22 @@ def pose_messages(track: Track) -> Iterable[Message]:
 
 
 def track_messages(track: Track, first: int = 0) -> Iterable[Message]:
-    """The track in segments of :data:`SEGMENT` poses that stay on screen, then the wall and
-    the USBL fixes; ``first``: the number of the track's first pose (a live run sends it in
+    """The track in segments of :data:`SEGMENT` poses that stay on screen, each with the USBL
+    fixes taken while it was driven (at their own times), then the wall and any fix after the
+    last pose; ``first``: the number of the track's first pose (a live run sends it in
     stretches)."""
     for start in range(0, max(len(track.truth) - 1, 0), SEGMENT):
         end = min(start + SEGMENT, len(track.truth) - 1)
         t = track.truth[end].t
+        after = track.truth[start].t if first + start > 0 else -math.inf
         lines = [line(track.truth[start:end + 1], TRUE_COLOR),
                  line(track.estimate[start:end + 1], ESTIMATE_COLOR)]
-        yield Message(t, "/vehicle/track", "foxglove.SceneUpdate", {
-            "deletions": [], "entities": [entity(t, f"track/{first + start}", lines=lines)]})
+        entities = [entity(t, f"track/{first + start}", lines=lines)]
+        fixes = [f for f in track.fixes if after < f[0] <= t]
+        if fixes:
+            entities.append(entity(t, f"usbl/{first + start}", spheres=spheres(fixes)))
+        yield Message(t, "/vehicle/track", "foxglove.SceneUpdate",
+                      {"deletions": [], "entities": entities})
     if track.truth:
         yield usbl_and_wall(track)
 
@@ -201,22 +207,27 @@ def entity(t: float, ident: str, lines: list[dict[str, Any]] | None = None,
             "lines": lines or [], "triangles": [], "texts": [], "models": []}
 
 
+def spheres(fixes: list[tuple[float, float, float, float, bool]]) -> list[dict[str, Any]]:
+    """USBL fixes as spheres at their positions (green: accepted, red: rejected)."""
+    return [{"pose": pose_of(Pose(t, x, y, z, 0.0)),
+             "size": {"x": 0.1, "y": 0.1, "z": 0.1},
+             "color": {"r": 0.1 if ok else 1.0, "g": 0.8 if ok else 0.1, "b": 0.1, "a": 0.8}}
+            for t, x, y, z, ok in fixes]
+
+
 def usbl_and_wall(track: Track) -> Message:
-    """The wall (the plane x = 0, as far as the track goes) and the USBL fixes (green:
-    accepted, red: rejected), at the track's last time (a fix's own time is not kept)."""
+    """The wall (the plane x = 0, as far as the track goes) and the USBL fixes taken after the
+    track's last pose, at that pose's time."""
     t = track.truth[-1].t
-    spheres = [{"pose": pose_of(Pose(t, x, y, z, 0.0)),
-                "size": {"x": 0.1, "y": 0.1, "z": 0.1},
-                "color": {"r": 0.1 if ok else 1.0, "g": 0.8 if ok else 0.1, "b": 0.1, "a": 0.8}}
-               for x, y, z, ok in track.fixes]
     ys = [p.y for p in track.truth]
     zs = [p.z for p in track.truth]
     wall = {"pose": pose_of(Pose(t, -0.05, (min(ys) + max(ys)) / 2, max(zs) / 2 + 0.5, 0.0)),
             "size": {"x": 0.1, "y": max(ys) - min(ys) + 4.0, "z": max(zs) + 1.0},
             "color": {"r": 0.6, "g": 0.6, "b": 0.6, "a": 0.4}}
     entities = [entity(t, "wall", cubes=[wall])]
-    if spheres:
-        entities.append(entity(t, "usbl", spheres=spheres))
+    late = [f for f in track.fixes if f[0] > t]
+    if late:
+        entities.append(entity(t, "usbl/after", spheres=spheres(late)))
     return Message(t, "/vehicle/track", "foxglove.SceneUpdate",
                    {"deletions": [], "entities": entities})
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import base64
 import json
+import re
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -229,3 +230,23 @@ def test_run_refuses_an_mcap_it_could_not_write_before_the_start(tmp_path: Path)
     assert result.returncode == 2, result.stdout + result.stderr
     assert "--mcap" in result.stderr and "no folder" in result.stderr
     assert "Traceback" not in result.stderr and not log.exists()  # the mission never started
+
+
+def test_usbl_fixes_are_drawn_when_they_were_taken(short_run: Any) -> None:
+    """Each USBL fix comes with the stretch of track driven when it was taken (not all at the
+    run's end), and none is lost or drawn twice."""
+    _, out, result = short_run
+    times = []
+    count = 0
+    for _, channel, message, data in read_mcap(out)["messages"]:
+        if channel.topic != "/vehicle/track":
+            continue
+        for e in data["entities"]:
+            if e["id"].startswith("usbl/"):
+                times.append(message.log_time / 1e9)
+                count += len(e["spheres"])
+    last = max(m.log_time for _, _, m, _ in read_mcap(out)["messages"]) / 1e9
+    assert len(times) >= 2 and min(times) < last / 2, times  # spread along the run
+    printed = re.search(r"USBL fixes (\d+)", result.stdout)  # the run's summary
+    assert printed, result.stdout
+    assert count == int(printed.group(1)) > 20  # a fix a second for 51 s, each drawn once

@@ -32,7 +32,7 @@ class Survey:
     nav_errors: list[float] = field(default_factory=list)  # horizontal, m
     wall_dist_errors: list[float] = field(default_factory=list)  # during the survey, m
     wall_head_errors: list[float] = field(default_factory=list)  # during the survey, rad
-    fixes: list[tuple[float, float, float, bool]] = field(default_factory=list)  # x y z ok
+    fixes: list[tuple[float, float, float, float, bool]] = field(default_factory=list)  # t x y z ok
     footprints: list[tuple[float, float, float, float]] = field(default_factory=list)
     images: int = 0
     path_length: float = 0.0
@@ -63,7 +63,7 @@ class Survey:
 
     def usbl(self, fix: UsblFix, accepted: bool) -> None:
         x, y, z = (float(v) for v in fix.position)
-        self.fixes.append((x, y, z, accepted))
+        self.fixes.append((float(fix.t), x, y, z, accepted))
 
     def image(self, image: CameraImage) -> None:
         self.images += 1
@@ -103,12 +103,12 @@ class Survey:
             "wall_distance_rms_m": round(rms(self.wall_dist_errors), 3),
             "wall_heading_rms_deg": round(math.degrees(rms(self.wall_head_errors)), 2),
             "usbl_fixes": len(self.fixes),
-            "usbl_rejected": sum(1 for f in self.fixes if not f[3]),
+            "usbl_rejected": sum(1 for f in self.fixes if not f[4]),
         }
 
     def svg(self, title: str) -> str:
         """The path on the wall plane (y along the wall, depth down) with the USBL fixes."""
-        pts = [(y, z) for _, _, y, z in self.truth] + [(y, z) for _, y, z, _ in self.fixes]
+        pts = [(y, z) for _, _, y, z in self.truth] + [(y, z) for _, _, y, z, _ in self.fixes]
         if not pts:
             pts = [(0.0, 0.0)]
         ys, zs = [p[0] for p in pts], [p[1] for p in pts]
@@ -129,7 +129,7 @@ class Survey:
             out.append(f'<rect x="{pad + (ymin - y0) * sx:.1f}" y="{pad + (zmin - z0) * sz:.1f}" '
                        f'width="{(ymax - ymin) * sx:.1f}" height="{(zmax - zmin) * sz:.1f}" '
                        'fill="#9ecae1" fill-opacity="0.08" stroke="none"/>')
-        for _, y, z, ok in self.fixes:
+        for _, _, y, z, ok in self.fixes:
             colour = "#444" if ok else "#d62728"
             out.append(f'<circle cx="{pad + (y - y0) * sx:.1f}" cy="{pad + (z - z0) * sz:.1f}" '
                        f'r="1.6" fill="{colour}"/>')
