@@ -78,14 +78,19 @@ class LiveRun:
         ev, ac = status.get("last_event"), status.get("last_action")
         entries = []
         if isinstance(ev, dict):
+            line = ev.get("line")  # that of the firing the event caused (once it fired)
             entries.append({"t": ev.get("t"), "kind": "event", "text": str(ev.get("event")),
-                            "line": None})
+                            "line": line if isinstance(line, int) else None})
         if isinstance(ac, dict):
             entries.append({"t": ac.get("t"), "kind": "action", "line": line_of(
                 str(ac.get("task", ""))), "text": f"{ac.get('action')} {ac.get('behaviour')}"})
         for entry in entries:
-            if entry not in self.timeline:
+            same = [e for e in self.timeline
+                    if (e["t"], e["kind"], e["text"]) == (entry["t"], entry["kind"], entry["text"])]
+            if not same:
                 self.timeline.append(entry)
+            elif entry["line"] is not None:
+                same[0]["line"] = entry["line"]
         self.timeline.sort(key=lambda e: float(e["t"] or 0))
 
     def on_navigator(self, payload: bytes) -> None:

@@ -10,10 +10,11 @@ The status is one small JSON object (``v`` 1)::
                   "progress": {"waypoint": 12, "of": 84, "to_go": 96.3}}],
      "done": 5, "total": 17,
      "behaviours": ["AchieveHeadDist", "StartCamera", "WallInspection"], "fired": 80,
-     "last_event": {"t": 98.1, "event": "GoTo.reached"},
+     "last_event": {"t": 98.1, "event": "GoTo.reached", "line": 34},
      "last_action": {"t": 100.2, "action": "enable", "behaviour": "WallInspection"}}
 
-``total`` counts the task calls of the mission (each ``Task@line:col`` once), ``done`` those
+``last_event`` gains ``line``, the MCL line of the firing it caused, once it has fired (an
+event nobody waited for has none). ``total`` counts the task calls of the mission (each ``Task@line:col`` once), ``done`` those
 that have started and are no longer running (ended, or never run because their block was
 aborted before them is not counted); a task in a loop counts once. ``t`` is mission time (0 at
 the mission's start; the player runs on it, petri/execution/runner.py) at the last change, ``clock`` the
@@ -124,7 +125,11 @@ class MissionStatus:
                 call = _call(d["transition"])
                 if call in self.calls:
                     self.started.add(call)
-                if self._update_running():
+                ev = self.last_event
+                caused = ev is not None and "line" not in ev and d.get("cause") == ev["event"]
+                if caused and ev is not None:  # the event's line: that of the firing it caused
+                    ev["line"] = d.get("line")
+                if self._update_running() or caused:
                     self._publish()
             return
         self._update_running()

@@ -16,7 +16,7 @@ from typing import Any
 
 import pytest
 
-from app.view.data import mission_data
+from app.view.data import mission_data, timeline
 from app.view.live import LiveRun
 from mcl.api import compile_file
 from mission import run_mission
@@ -76,7 +76,13 @@ def test_statuses_become_the_pages_changes(statuses: tuple[list[bytes], Path]) -
     records = [json.loads(line) for line in log.read_text().splitlines()]
     logged = BlockStates(compiled.net).read(records)
     assert states_at(data["changes"], 1e9) == logged.now()
-    assert {"t": 600.0, "kind": "event", "text": "Alarms.leak", "line": None} in data["timeline"]
+    # each event carries the line of the firing it caused, as the log's own timeline says
+    from_log = {(e["t"], e["text"]): e["line"] for e in timeline(records) if e["kind"] == "event"}
+    leak = from_log[(600.0, "Alarms.leak")]
+    assert leak is not None and "Alarms()" in compiled.source.text.splitlines()[leak - 1]
+    assert {"t": 600.0, "kind": "event", "text": "Alarms.leak", "line": leak} in data["timeline"]
+    events = [e for e in data["timeline"] if e["kind"] == "event"]
+    assert events and all(e["line"] == from_log[(e["t"], e["text"])] for e in events)
 
 
 def test_a_new_run_another_mission_old_news_and_a_lost_vehicle(
