@@ -1,0 +1,140 @@
+"""The fleet proof under loss: the product net, its properties, its counterexamples (which
+interleave the vehicles' lines and replay on the players) and the compositional route."""
+
+from __future__ import annotations
+
+import pytest
+
+from mcl.analysis.fleet import product
+from mcl.analysis.fleet_replay import ReplayError, replay, visited
+from mcl.analysis.fleet_verification import PROPERTIES, verify_fleet
+from petri.verification.reachability import explore
+from petri.verification.verdict import Result
+from tests.mcl.analysis.fleet_missions import (ASV_MAY_NOT_SEND, UUV_NO_SURFACING, UUV_WAITS,
+                                               Fleet, fleet)
+
+
+def results(f: Fleet, method: str = "explicit") -> dict[str, Result]:
+    verdict = verify_fleet(f, method)
+    return {r.name: r for r in verdict.results}
+
+
+def test_the_product_keeps_every_vehicle_and_adds_four_places_per_link() -> None:
+    f = fleet()
+    fnet = product(f)
+    own = sum(len(c.net.places) for c in f.vehicles.values())
+    assert len(fnet.net.places) == own + 4 * 2  # release and fix to uuv
+    assert all(p.name.split("/")[0] in ("asv", "uuv") for p in fnet.net.places[:own])
+    sends = [t for t in fnet.net.transitions if any(a.kind == "send" for a in t.actions)]
+    assert len(sends) == 4  # two sends, each from an empty and from a full link
+    losses = [s for s in fnet.steps if s.kind == "lose"]
+    assert len(losses) == 2
+    assert not [s for s in product(fleet(lossy=False)).steps if s.kind == "lose"]
+
+
+def test_a_guided_vehicle_that_surfaces_when_the_guide_is_silent_is_proved() -> None:
+    verdict = verify_fleet(fleet(), "explicit")
+    assert [r.name for r in verdict.results] == list(PROPERTIES)
+    assert verdict.ok, [(r.name, r.message) for r in verdict.results if not r.holds]
+    assert verdict.markings > 1000
+
+
+def test_removing_the_surfacing_fails_with_both_vehicles_lines() -> None:
+    f = fleet(uuv=UUV_NO_SURFACING)
+    verdict = verify_fleet(f, "explicit")
+    failed = {r.name: r for r in verdict.results if r.status == "fails"}
+    assert {"fleet-silence", "fleet-nothing-on-at-end"} <= set(failed)
+    r = failed["fleet-silence"]
+    assert "Dive" in r.message
+    lines = verdict.lines(r.counterexample or [])
+    assert any(x.startswith("asv asv.mcl:2:5 SendRelease()") for x in lines)
+    assert any(x.startswith("uuv uuv.mcl:2:10 ReceiveRelease(): guide.release") for x in lines)
+    assert "channel guide: release delivered to uuv" in lines
+    assert any(x.startswith("uuv uuv.mcl:4:14 ReceiveFix(): timeout") for x in lines)
+    players = replay(verdict.fleet, r.counterexample or [])
+    assert players["uuv"].behaviours_on and "Dive" in players["uuv"].behaviours_on
+    as_json = verdict.to_json()["properties"]
+    steps = next(p for p in as_json if p["property"] == "fleet-silence")["counterexample"]
+    assert {s["vehicle"] for s in steps} == {"asv", "uuv", None}
+
+
+def test_a_vehicle_waiting_for_ever_on_a_reliable_channel_is_shown() -> None:
+    f = fleet(ASV_MAY_NOT_SEND, UUV_WAITS, lossy=False)
+    verdict = verify_fleet(f, "explicit")
+    r = next(r for r in verdict.results if r.name == "fleet-no-deadlock")
+    assert r.status == "fails" and "ReceiveReleaseForever" in r.message
+    lines = verdict.lines(r.counterexample or [])
+    assert any("asv asv.mcl:2:10 Surface(): timeout" in x for x in lines)
+    players = replay(verdict.fleet, r.counterexample or [])
+    assert players["asv"].rules.end_status(players["asv"].marking) == "ok"
+    assert players["uuv"].rules.end_status(players["uuv"].marking) is None
+
+
+def test_a_reliable_channel_lets_the_product_prove_a_wait_without_timeout() -> None:
+    always = ASV_MAY_NOT_SEND.replace("ELSE { Wait(1 s) }", "ELSE { SendRelease() }")
+    f = fleet(always, UUV_WAITS, lossy=False)
+    explicit = results(f)
+    assert explicit["fleet-no-deadlock"].status == "holds"
+    assert explicit["fleet-terminates"].status == "holds"
+    # alone, the guided vehicle may never get its message: never a verdict, undecided
+    alone = results(f, "compositional")
+    assert alone["fleet-no-deadlock"].status == "undecided"
+    assert "uuv alone" in alone["fleet-no-deadlock"].message
+    assert alone["fleet-terminates"].status == "undecided"
+
+
+def test_the_compositional_route_proves_the_good_fleet_and_never_fails() -> None:
+    good = results(fleet(), "compositional")
+    assert all(r.status == "holds" for r in good.values())
+    bad = results(fleet(uuv=UUV_NO_SURFACING), "compositional")
+    statuses = {r.status for r in bad.values()}
+    assert "fails" not in statuses and "undecided" in statuses
+
+
+def test_auto_takes_the_compositional_route_when_the_product_is_over_budget() -> None:
+    verdict = verify_fleet(fleet(), "auto", max_bytes=200_000)
+    assert verdict.note.startswith("auto:") and "compositional" in verdict.note
+    assert all(r.method.startswith(("compositional", "each vehicle")) for r in verdict.results)
+    small = verify_fleet(fleet(), "auto")
+    assert small.note == "" and small.markings > 1000
+
+
+def test_a_cut_product_decides_nothing_that_holds() -> None:
+    verdict = verify_fleet(fleet(), "explicit", max_markings=500)
+    statuses = {r.name: r.status for r in verdict.results}
+    assert statuses["fleet-can-end"] == "undecided"
+    assert statuses["fleet-nothing-on-at-end"] == "undecided"
+    # a violation seen before the cut stands
+    bad = verify_fleet(fleet(ASV_MAY_NOT_SEND, UUV_WAITS, lossy=False), "explicit",
+                       max_markings=98)
+    assert any(r.status == "fails" for r in bad.results)
+
+
+def test_every_joint_state_a_replayed_run_visits_is_in_the_verified_graph() -> None:
+    f = fleet()
+    fnet = product(f)
+    ss = explore(fnet.net)
+    assert ss.complete
+    # walk a long run of the product (the BFS path to its last marking) on the players
+    path = []
+    row = ss.n_markings - 1
+    assert ss.parent is not None and ss.parent_transition is not None
+    while row > 0:
+        path.append(int(ss.parent_transition[row]))
+        row = int(ss.parent[row])
+    path.reverse()
+    for k in range(len(path) + 1):
+        players = replay(fnet, path[:k])
+        assert visited(ss, fnet, {v: p.marking for v, p in players.items()})
+    # a joint state no run reaches: both vehicles at their initial marking but uuv ended
+    players = replay(fnet, [])
+    ended = list(players["uuv"].marking)
+    ended[next(iter(players["uuv"].rules.ends))] = 1
+    assert not visited(ss, fnet, {"asv": players["asv"].marking, "uuv": ended})
+
+
+def test_a_reception_without_its_message_does_not_replay() -> None:
+    fnet = product(fleet())
+    receive = next(t for t, s in enumerate(fnet.steps) if s.kind == "vehicle" and s.link)
+    with pytest.raises(ReplayError):
+        replay(fnet, [receive])
