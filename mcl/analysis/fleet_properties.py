@@ -215,7 +215,7 @@ def _terminates(views: Views, terminates: Terminates, how: str) -> Result:
     if len(stuck):  # a run that stops before its end: it waits for ever
         first = int(stuck.min())
         return Result(name, False, "error", "some run of the fleet never ends: "
-                      f"{views.who_waits(first)} wait for ever", how,
+                      f"waiting for ever: {views.who_waits(first)}", how,
                       shortest_path(ss, np.array([first])), first)
     if ss.complete and loop is None:
         return Result(name, True, "error", "every run of the fleet ends: the product has no "

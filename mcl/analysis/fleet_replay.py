@@ -14,7 +14,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from petri.execution.player import Player
+from petri.execution.player import Order, Player
 from petri.verification.reachability import StateSpace
 
 from mcl.analysis.fleet import FleetNet, Link
@@ -26,30 +26,30 @@ class ReplayError(ValueError):
 
 def replay(fnet: FleetNet, steps: Sequence[int]) -> dict[str, Player]:
     """Fire ``steps`` (product transitions) on one player per vehicle; the players, at the
-    end. Raises :class:`ReplayError` where a firing cannot happen."""
-    players = {v: Player(s.net) for v, s in fnet.slices.items()}
+    end. What a player sends (its ``sender``) goes in flight to the channel's receivers.
+    Raises :class:`ReplayError` where a firing cannot happen."""
     flight: set[Link] = set()
     mailbox: set[Link] = set()
+
+    def sender(order: Order) -> None:
+        message = order.params.get("message")
+        flight.update(x for x in fnet.links
+                      if x.channel == order.behaviour and x.message == message)
+
+    players = {v: Player(s.net, sender=sender) for v, s in fnet.slices.items()}
     for at, t in enumerate(steps):
         step = fnet.steps[t]
         ln = step.link
         if step.kind == "vehicle":
             assert step.vehicle is not None
-            player = players[step.vehicle]
             if ln is not None and ln not in mailbox:
                 raise ReplayError(f"step {at + 1}: {fnet.step_text(t)}: no {ln.message} "
                                   "in the mailbox")
             try:
-                player.fire(step.original, float(at))
+                players[step.vehicle].fire(step.original, float(at))
             except ValueError as e:
                 raise ReplayError(f"step {at + 1}: {e}") from None
             mailbox.discard(ln) if ln is not None else None
-            tr = fnet.slices[step.vehicle].net.transitions[step.original]
-            for a in tr.actions:
-                if a.kind == "send":
-                    message = str(dict(a.params).get("message", ""))
-                    flight |= {x for x in fnet.links
-                               if x.channel == a.behaviour and x.message == message}
             continue
         assert ln is not None
         if step.kind == "arrive":

@@ -10,11 +10,13 @@ from mcl.analysis.fleet_replay import ReplayError, replay, visited
 from mcl.analysis.fleet_verification import PROPERTIES, verify_fleet
 from petri.verification.reachability import explore
 from petri.verification.verdict import Result
-from tests.mcl.analysis.fleet_missions import (ASV_MAY_NOT_SEND, UUV_NO_SURFACING, UUV_WAITS,
-                                               Fleet, fleet)
+from mcl.fleet import CompiledFleet
+from tests.mcl.analysis.fleet_missions import (ASV_ALWAYS_SENDS, ASV_MAY_NOT_SEND,
+                                               UUV_NO_SURFACING, UUV_WAITS, fleet, fleet_text,
+                                               where)
 
 
-def results(f: Fleet, method: str = "explicit") -> dict[str, Result]:
+def results(f: CompiledFleet, method: str = "explicit") -> dict[str, Result]:
     verdict = verify_fleet(f, method)
     return {r.name: r for r in verdict.results}
 
@@ -45,14 +47,18 @@ def test_removing_the_surfacing_fails_with_both_vehicles_lines() -> None:
     failed = {r.name: r for r in verdict.results if r.status == "fails"}
     assert {"fleet-silence", "fleet-nothing-on-at-end"} <= set(failed)
     r = failed["fleet-silence"]
-    assert "Dive" in r.message
+    assert "AchieveHeadDist" in r.message  # KeepHeadDist's latched behaviour
+    text = fleet_text(uuv=UUV_NO_SURFACING)
     lines = verdict.lines(r.counterexample or [])
-    assert any(x.startswith("asv asv.mcl:2:5 SendRelease()") for x in lines)
-    assert any(x.startswith("uuv uuv.mcl:2:10 ReceiveRelease(): guide.release") for x in lines)
+    assert f"asv {where(text, 'Send(guide, release)')} Send(guide, release): start and end" \
+        in lines
+    receive = "Receive(guide, release, timeout = 5 min)"
+    assert f"uuv {where(text, receive)} {receive}: guide.release → ok" in lines
     assert "channel guide: release delivered to uuv" in lines
-    assert any(x.startswith("uuv uuv.mcl:4:14 ReceiveFix(): timeout") for x in lines)
+    fix = "Receive(guide, fix, timeout = 10 s)"
+    assert f"uuv {where(text, fix)} {fix}: timeout 10 s → fail" in lines
     players = replay(verdict.fleet, r.counterexample or [])
-    assert players["uuv"].behaviours_on and "Dive" in players["uuv"].behaviours_on
+    assert "AchieveHeadDist" in players["uuv"].behaviours_on
     as_json = verdict.to_json()["properties"]
     steps = next(p for p in as_json if p["property"] == "fleet-silence")["counterexample"]
     assert {s["vehicle"] for s in steps} == {"asv", "uuv", None}
@@ -62,17 +68,18 @@ def test_a_vehicle_waiting_for_ever_on_a_reliable_channel_is_shown() -> None:
     f = fleet(ASV_MAY_NOT_SEND, UUV_WAITS, lossy=False)
     verdict = verify_fleet(f, "explicit")
     r = next(r for r in verdict.results if r.name == "fleet-no-deadlock")
-    assert r.status == "fails" and "ReceiveReleaseForever" in r.message
+    text = fleet_text(ASV_MAY_NOT_SEND, UUV_WAITS, lossy=False)
+    at = where(text, "Receive(guide, release)")
+    assert r.status == "fails" and f"Receive@{at.split(':', 1)[1]}" in r.message
     lines = verdict.lines(r.counterexample or [])
-    assert any("asv asv.mcl:2:10 Surface(): timeout" in x for x in lines)
+    assert f"asv {where(text, 'Surface()')} Surface(): timeout 300 s → fail" in lines
     players = replay(verdict.fleet, r.counterexample or [])
     assert players["asv"].rules.end_status(players["asv"].marking) == "ok"
     assert players["uuv"].rules.end_status(players["uuv"].marking) is None
 
 
 def test_a_reliable_channel_lets_the_product_prove_a_wait_without_timeout() -> None:
-    always = ASV_MAY_NOT_SEND.replace("ELSE { Wait(1 s) }", "ELSE { SendRelease() }")
-    f = fleet(always, UUV_WAITS, lossy=False)
+    f = fleet(ASV_ALWAYS_SENDS, UUV_WAITS, lossy=False)
     explicit = results(f)
     assert explicit["fleet-no-deadlock"].status == "holds"
     assert explicit["fleet-terminates"].status == "holds"
