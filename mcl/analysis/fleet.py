@@ -5,18 +5,21 @@ A fleet is proved on one place/transition net (docs/METHODS.md, "Fleets: what is
 - every vehicle's places and transitions, renamed ``VEHICLE/...`` (origins kept), except its
   external stop (``Mission.abort``): the product is the fleet left to itself, each vehicle's
   stop being proved on its own (``stop-safe``);
-- for each channel, message and receiver a *link*: four places, ``in flight`` / ``empty`` and
-  ``mailbox`` / ``mailbox empty`` (each pair holds one token: the net stays 1-safe), and the
-  channel's own transitions: ``deliver`` (in flight -> mailbox; a newer delivery overwrites
-  an unread one) and, on a LOSSY channel, ``lose`` (in flight -> empty);
+- for each channel, message and receiver a *link*: two places, ``in flight`` / ``empty``
+  (one token between them: the net stays 1-safe);
 - a sender's transition that carries ``Action("send", CHANNEL, (("message", M),))`` puts M in
   flight to every receiver (a second send while one is in flight overwrites it): one copy of
   the transition for each combination of the links' states, so that arcs stay unweighted;
-- a receiver's transition waiting for the event ``"CHANNEL.M"`` also takes the mailbox token.
+- a delivery is what the player makes of it at run time (mission/fleet.py hands it to the
+  player as the event ``"CHANNEL.M"``): heard by a Receive waiting for it at that moment —
+  the Receive's ``ok`` transition also takes the message from flight — or *ignored* when none
+  waits (``ignore``: in flight -> empty, enabled only while no Receive of it waits, read from
+  a complement place of each waiting place); on a LOSSY channel ``lose`` empties it at any
+  time.
 
 Vehicles never share a transition (a one-way link at 0.5 Hz cannot carry a rendezvous). The
-same construction with one vehicle and *arrivals* instead of senders (a message may be put in
-the mailbox at any moment) is the vehicle alone against its channels' contract: the
+same construction with one vehicle and *arrivals* instead of senders (a message may come at
+any moment) is the vehicle alone against its channels' contract: the
 compositional route (mcl/analysis/fleet_compositional.py).
 """
 
@@ -64,7 +67,8 @@ class FleetSpec(Protocol):
 
 @dataclass(frozen=True)
 class Link:
-    """One message of one channel on its way to one receiver: its four places."""
+    """One message of one channel on its way to one receiver: its two places, and the
+    receiver's places where a Receive of it waits (``waiting``, in the product)."""
 
     channel: str
     message: str
@@ -72,8 +76,7 @@ class Link:
     lossy: bool
     flight: int
     empty: int
-    mailbox: int
-    mailbox_empty: int
+    waiting: tuple[int, ...] = ()
 
     @property
     def event(self) -> str:
@@ -83,10 +86,11 @@ class Link:
 @dataclass(frozen=True)
 class Step:
     """What a product transition is: a vehicle's own transition (``vehicle``, ``original``:
-    its index in that vehicle's net) or a channel's (``kind`` "deliver", "lose" or, when a
-    vehicle is proved alone, "arrive"; ``link`` the link it moves)."""
+    its index in that vehicle's net; ``link``: the message a Receive hears) or a channel's
+    (``kind`` "ignore", "lose" or, when a vehicle is proved alone, "arrive"; ``link`` the
+    link it moves)."""
 
-    kind: str  # "vehicle" | "deliver" | "lose" | "arrive"
+    kind: str  # "vehicle" | "ignore" | "lose" | "arrive"
     vehicle: str | None = None
     original: int = -1
     link: Link | None = None
@@ -128,14 +132,16 @@ class FleetNet:
         step = self.steps[t]
         if step.link is not None and step.kind != "vehicle":
             ln = step.link
-            what = {"deliver": "delivered to", "lose": "lost on its way to",
-                    "arrive": "arrives at"}[step.kind]
-            return f"channel {ln.channel}: {ln.message} {what} {ln.receiver}"
+            what = {"ignore": f"reaches {ln.receiver}, where no Receive waits: ignored",
+                    "lose": f"lost on its way to {ln.receiver}",
+                    "arrive": f"on its way to {ln.receiver}"}[step.kind]
+            return f"channel {ln.channel}: {ln.message} {what}"
         assert step.vehicle is not None
         tr = self.slices[step.vehicle].net.transitions[step.original]
         o = tr.origin
         where = f" {o.where()} {o.text}" if o is not None else f" {tr.name}"
-        return f"{step.vehicle}{where}: {tr.label or tr.name}"
+        heard = f" (delivered: {step.link.event})" if step.link is not None else ""
+        return f"{step.vehicle}{where}: {tr.label or tr.name}{heard}"
 
 
 def product(fleet: FleetSpec) -> FleetNet:
@@ -144,8 +150,8 @@ def product(fleet: FleetSpec) -> FleetNet:
 
 
 def alone(fleet: FleetSpec, vehicle: str) -> FleetNet:
-    """``vehicle`` alone against its channels' contract: its receptions' mailboxes may be
-    filled at any moment (``arrive``), its sends go nowhere."""
+    """``vehicle`` alone against its channels' contract: any message to it may be on its
+    way at any moment (``arrive``), its sends go nowhere."""
     return _build(fleet, [vehicle], arrivals=True)
 
 
@@ -167,7 +173,11 @@ def _build(fleet: FleetSpec, vehicles: list[str], arrivals: bool) -> FleetNet:
         for message in ch.messages:
             for r in ch.receivers:
                 if r in slices:
-                    fnet.links.append(_link(net, ch, message, r))
+                    fnet.links.append(_link(net, ch, message, r, slices[r]))
+    not_waiting = {p: net.add_place(f"{net.places[p].name} (not waiting)", role=INNER)
+                   for p in sorted({p for ln in fnet.links for p in ln.waiting})}
+    for p, bar in not_waiting.items():
+        net.initial[bar] = 1 - net.initial.get(p, 0)
     by_event = {(ln.receiver, ln.event): ln for ln in fnet.links}
     by_send: dict[tuple[str, str], list[Link]] = {}
     for ln in fnet.links:
@@ -176,11 +186,10 @@ def _build(fleet: FleetSpec, vehicles: list[str], arrivals: bool) -> FleetNet:
         for t, tr in enumerate(s.net.transitions):
             if tr.event == MISSION_ABORT:
                 continue
-            ins = [s.first + p for p, w in tr.inputs for _ in range(w)]
-            outs = [s.first + p for p, w in tr.outputs for _ in range(w)]
+            ins, outs = _arcs(s, t, not_waiting)
             got = by_event.get((v, tr.event)) if tr.event is not None else None
             if got is not None:
-                ins, outs = ins + [got.mailbox], outs + [got.mailbox_empty]
+                ins, outs = ins + [got.flight], outs + [got.empty]
             sent = [] if arrivals else [ln for a in tr.actions if a.kind == SEND
                                         for ln in by_send.get((a.behaviour, _message(a)), [])]
             for full in itertools.product((False, True), repeat=len(sent)):
@@ -191,34 +200,47 @@ def _build(fleet: FleetSpec, vehicles: list[str], arrivals: bool) -> FleetNet:
                                    label=tr.label)
                 fnet.steps.append(Step("vehicle", v, t, got))
     for ln in fnet.links:
-        _channel_transitions(fnet, ln, arrivals)
+        _channel_transitions(fnet, ln, arrivals, [not_waiting[p] for p in ln.waiting])
     return fnet
 
 
-def _link(net: Net, ch: ChannelSpec, message: str, receiver: str) -> Link:
+def _arcs(s: Slice, t: int, not_waiting: dict[int, int]) -> tuple[list[int], list[int]]:
+    """A vehicle transition's arcs in the product, with the complement of each waiting place
+    it empties (an output) or fills (an input)."""
+    tr = s.net.transitions[t]
+    ins = [s.first + p for p, w in tr.inputs for _ in range(w)]
+    outs = [s.first + p for p, w in tr.outputs for _ in range(w)]
+    for p in set(ins) - set(outs):
+        if p in not_waiting:
+            outs.append(not_waiting[p])
+    for p in set(outs) - set(ins):
+        if p in not_waiting:
+            ins.append(not_waiting[p])
+    return ins, outs
+
+
+def _link(net: Net, ch: ChannelSpec, message: str, receiver: str, s: Slice) -> Link:
     base = f"channel {ch.name}.{message}→{receiver}"
     flight = net.add_place(f"{base} in flight", role=INNER)
     empty = net.add_place(f"{base} empty", role=INNER)
-    mailbox = net.add_place(f"{base} mailbox", role=INNER)
-    mailbox_empty = net.add_place(f"{base} mailbox empty", role=INNER)
     net.initial[empty] = 1
-    net.initial[mailbox_empty] = 1
-    return Link(ch.name, message, receiver, ch.lossy, flight, empty, mailbox, mailbox_empty)
+    event = f"{ch.name}.{message}"
+    waiting = tuple(sorted({s.first + p for tr in s.net.transitions if tr.event == event
+                            for p, _ in tr.inputs}))
+    return Link(ch.name, message, receiver, ch.lossy, flight, empty, waiting)
 
 
-def _channel_transitions(fnet: FleetNet, ln: Link, arrivals: bool) -> None:
+def _channel_transitions(fnet: FleetNet, ln: Link, arrivals: bool, idle: list[int]) -> None:
+    """``ignore`` (read: no Receive of it waits), ``lose`` on a LOSSY channel, and when the
+    vehicle is alone ``arrive``."""
     net, base = fnet.net, f"channel {ln.channel}.{ln.message}→{ln.receiver}"
     if arrivals:
-        net.add_transition(f"{base}.arrive", [ln.mailbox_empty], [ln.mailbox],
-                           label=f"{ln.message} arrives")
+        net.add_transition(f"{base}.arrive", [ln.empty], [ln.flight],
+                           label=f"{ln.message} on its way")
         fnet.steps.append(Step("arrive", link=ln))
-        return
-    net.add_transition(f"{base}.deliver", [ln.flight, ln.mailbox_empty],
-                       [ln.empty, ln.mailbox], label=f"{ln.message} delivered")
-    fnet.steps.append(Step("deliver", link=ln))
-    net.add_transition(f"{base}.deliver.over", [ln.flight, ln.mailbox], [ln.empty, ln.mailbox],
-                       label=f"{ln.message} delivered over an unread one")
-    fnet.steps.append(Step("deliver", link=ln))
+    net.add_transition(f"{base}.ignore", [ln.flight, *idle], [ln.empty, *idle],
+                       label=f"{ln.message} ignored")
+    fnet.steps.append(Step("ignore", link=ln))
     if ln.lossy:
         net.add_transition(f"{base}.lose", [ln.flight], [ln.empty],
                            label=f"{ln.message} lost")

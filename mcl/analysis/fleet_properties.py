@@ -89,8 +89,9 @@ class Views:
 
 
 def lossy_delivery(step: Step) -> bool:
-    """The steps silence takes away in the product: deliveries on a LOSSY channel."""
-    return step.kind == "deliver" and step.link is not None and step.link.lossy
+    """The steps silence takes away in the product: receptions of a LOSSY channel's
+    messages."""
+    return step.kind == "vehicle" and step.link is not None and step.link.lossy
 
 
 LOSSY_SILENCE = "every later message on a lossy channel is lost"
@@ -130,7 +131,22 @@ def decide(fnet: FleetNet, ss: StateSpace, terminates: Terminates, how: str,
                        lambda r: f"a vehicle can end with {views.left_on(r)} still on",
                        how, cut))
     out.append(_terminates(views, terminates, how))
+    twice = two_waiting(fnet, ss)
+    if twice:  # the player hands one delivery to both; the product to one: not modelled
+        out = [undecided(r.name, f"undecided: {twice}", r.method) if r.holds else r
+               for r in out]
     return out
+
+
+def two_waiting(fnet: FleetNet, ss: StateSpace) -> str:
+    """Why the product does not model some run: two Receives of one message can wait at
+    once in one vehicle (the player hands one delivery to both, the product to one); ""
+    when none can."""
+    for ln in fnet.links:
+        if len(ln.waiting) > 1 and (ss.markings[:, list(ln.waiting)] > 0).sum(axis=1).max() > 1:
+            return (f"two Receives of {ln.event} can wait at once in {ln.receiver}: one "
+                    "delivery ends both at run time, which the product does not model")
+    return ""
 
 
 def _safety(views: Views, name: str, bad: npt.NDArray[np.int64], good: str,

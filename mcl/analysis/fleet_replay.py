@@ -3,8 +3,9 @@ in the verified graph.
 
 :func:`replay` feeds each vehicle's :class:`~petri.execution.player.Player` its own firings
 in the counterexample's order, and carries the channels' messages between them by the
-product's rule (in flight, delivered to a mailbox, lost; a reception takes the mailbox's
-message): a firing the player refuses, or a reception with an empty mailbox, is an error.
+product's rule (in flight; heard by a Receive waiting for it, ignored when none waits, or
+lost): a firing the player refuses, a reception of a message not on its way, or a message
+ignored while a Receive waits for it, is an error.
 :func:`visited` says whether a joint marking of the players is one the explicit route saw.
 """
 
@@ -29,7 +30,6 @@ def replay(fnet: FleetNet, steps: Sequence[int]) -> dict[str, Player]:
     end. What a player sends (its ``sender``) goes in flight to the channel's receivers.
     Raises :class:`ReplayError` where a firing cannot happen."""
     flight: set[Link] = set()
-    mailbox: set[Link] = set()
 
     def sender(order: Order) -> None:
         message = order.params.get("message")
@@ -38,28 +38,27 @@ def replay(fnet: FleetNet, steps: Sequence[int]) -> dict[str, Player]:
 
     players = {v: Player(s.net, sender=sender) for v, s in fnet.slices.items()}
     for at, t in enumerate(steps):
-        step = fnet.steps[t]
-        ln = step.link
+        step, ln = fnet.steps[t], fnet.steps[t].link
+        if ln is not None and step.kind != "arrive" and ln not in flight:
+            raise ReplayError(f"step {at + 1}: {fnet.step_text(t)}: no {ln.message} on its "
+                              f"way to {ln.receiver}")
         if step.kind == "vehicle":
             assert step.vehicle is not None
-            if ln is not None and ln not in mailbox:
-                raise ReplayError(f"step {at + 1}: {fnet.step_text(t)}: no {ln.message} "
-                                  "in the mailbox")
             try:
                 players[step.vehicle].fire(step.original, float(at))
             except ValueError as e:
                 raise ReplayError(f"step {at + 1}: {e}") from None
-            mailbox.discard(ln) if ln is not None else None
+            flight.discard(ln) if ln is not None else None
             continue
         assert ln is not None
         if step.kind == "arrive":
-            mailbox.add(ln)
+            flight.add(ln)
             continue
-        if ln not in flight:
-            raise ReplayError(f"step {at + 1}: {fnet.step_text(t)}: nothing in flight")
+        if step.kind == "ignore" and any(
+                players[ln.receiver].enabled(u)
+                for u in players[ln.receiver].rules.waiting.get(ln.event, [])):
+            raise ReplayError(f"step {at + 1}: {fnet.step_text(t)}: a Receive waits for it")
         flight.discard(ln)
-        if step.kind == "deliver":
-            mailbox.add(ln)
     return players
 
 

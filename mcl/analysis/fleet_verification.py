@@ -126,11 +126,11 @@ def verify_fleet(fleet: FleetSpec, method: str = "auto", max_markings: int = MAX
         limit = min(max_markings, markings_within(fnet.net, max_bytes))
         alone_ = (compositional(fleet, proofs, max_markings, max_bytes)
                   if method == "auto" else None)
-        bound = (product_bound(alone_, fnet) if alone_ is not None else 0.0)
+        bound = product_bound(alone_) if alone_ is not None else 0.0
         if alone_ is not None and (limit < 1 or bound > limit):
             verdict = alone_
             verdict.note = (f"auto: up to {bound:.3g} joint markings (each vehicle's alone, "
-                            f"multiplied, twice per link), over the explicit route's budget "
+                            f"multiplied), over the explicit route's budget "
                             f"of {limit:,} ({max_bytes / 2**20:,.0f} MiB): compositional")
         else:
             verdict = explicit(fnet, proofs, max(1, limit), max_bytes)
@@ -143,10 +143,10 @@ def verify_fleet(fleet: FleetSpec, method: str = "auto", max_markings: int = MAX
     return verdict
 
 
-def product_bound(alone_: FleetVerdict, fnet: FleetNet) -> float:
-    """An upper bound of the product's joint markings: each vehicle's markings alone (its
-    mailboxes included) multiplied, times two per link (in flight or not)."""
-    total = 2.0 ** len(fnet.links)
+def product_bound(alone_: FleetVerdict) -> float:
+    """An upper bound of the product's joint markings: each vehicle's markings alone (with
+    the messages on their way to it) multiplied."""
+    total = 1.0
     for n in alone_.alone_markings.values():
         total *= n
     return min(total, 1e300)

@@ -8,7 +8,9 @@ import pytest
 from mcl.analysis.fleet import product
 from mcl.analysis.fleet_replay import ReplayError, replay, visited
 from mcl.analysis.fleet_verification import PROPERTIES, verify_fleet
-from petri.verification.reachability import explore
+import numpy as np
+
+from petri.verification.reachability import StateSpace, explore
 from petri.verification.verdict import Result
 from mcl.fleet import CompiledFleet
 from tests.mcl.analysis.fleet_missions import (ASV_ALWAYS_SENDS, ASV_MAY_NOT_SEND,
@@ -21,11 +23,14 @@ def results(f: CompiledFleet, method: str = "explicit") -> dict[str, Result]:
     return {r.name: r for r in verdict.results}
 
 
-def test_the_product_keeps_every_vehicle_and_adds_four_places_per_link() -> None:
+def test_the_product_keeps_every_vehicle_and_adds_two_places_per_link() -> None:
     f = fleet()
     fnet = product(f)
     own = sum(len(c.net.places) for c in f.vehicles.values())
-    assert len(fnet.net.places) == own + 4 * 2  # release and fix to uuv
+    # release and fix to uuv, and "not waiting" for each of uuv's two Receives
+    assert len(fnet.net.places) == own + 2 * 2 + 2
+    waits = [p.name for p in fnet.net.places if p.name.endswith("(not waiting)")]
+    assert len(waits) == 2 and all(w.startswith("uuv/Receive@") for w in waits)
     assert all(p.name.split("/")[0] in ("asv", "uuv") for p in fnet.net.places[:own])
     sends = [t for t in fnet.net.transitions if any(a.kind == "send" for a in t.actions)]
     assert len(sends) == 4  # two sends, each from an empty and from a full link
@@ -53,15 +58,15 @@ def test_removing_the_surfacing_fails_with_both_vehicles_lines() -> None:
     assert f"asv {where(text, 'Send(guide, release)')} Send(guide, release): start and end" \
         in lines
     receive = "Receive(guide, release, timeout = 5 min)"
-    assert f"uuv {where(text, receive)} {receive}: guide.release → ok" in lines
-    assert "channel guide: release delivered to uuv" in lines
+    assert f"uuv {where(text, receive)} {receive}: guide.release → ok (delivered: " \
+        "guide.release)" in lines
     fix = "Receive(guide, fix, timeout = 10 s)"
     assert f"uuv {where(text, fix)} {fix}: timeout 10 s → fail" in lines
     players = replay(verdict.fleet, r.counterexample or [])
     assert "AchieveHeadDist" in players["uuv"].behaviours_on
     as_json = verdict.to_json()["properties"]
     steps = next(p for p in as_json if p["property"] == "fleet-silence")["counterexample"]
-    assert {s["vehicle"] for s in steps} == {"asv", "uuv", None}
+    assert {"asv", "uuv"} <= {s["vehicle"] for s in steps}
 
 
 def test_a_vehicle_waiting_for_ever_on_a_reliable_channel_is_shown() -> None:
@@ -72,17 +77,23 @@ def test_a_vehicle_waiting_for_ever_on_a_reliable_channel_is_shown() -> None:
     at = where(text, "Receive(guide, release)")
     assert r.status == "fails" and f"Receive@{at.split(':', 1)[1]}" in r.message
     lines = verdict.lines(r.counterexample or [])
-    assert f"asv {where(text, 'Surface()')} Surface(): timeout 300 s → fail" in lines
+    assert any(x.startswith(f"asv {where(text, 'Surface()')} Surface()") for x in lines)
     players = replay(verdict.fleet, r.counterexample or [])
     assert players["asv"].rules.end_status(players["asv"].marking) == "ok"
     assert players["uuv"].rules.end_status(players["uuv"].marking) is None
 
 
-def test_a_reliable_channel_lets_the_product_prove_a_wait_without_timeout() -> None:
+def test_a_message_heard_by_no_one_is_ignored_and_the_wait_shown_endless() -> None:
+    # the guide always sends, but in the untimed product its message may reach the vehicle
+    # before the vehicle waits for it: the player ignores an event nobody waits for
     f = fleet(ASV_ALWAYS_SENDS, UUV_WAITS, lossy=False)
-    explicit = results(f)
-    assert explicit["fleet-no-deadlock"].status == "holds"
-    assert explicit["fleet-terminates"].status == "holds"
+    verdict = verify_fleet(f, "explicit")
+    r = next(r for r in verdict.results if r.name == "fleet-no-deadlock")
+    assert r.status == "fails"
+    lines = verdict.lines(r.counterexample or [])
+    assert "channel guide: release reaches uuv, where no Receive waits: ignored" in lines
+    players = replay(verdict.fleet, r.counterexample or [])
+    assert players["uuv"].rules.end_status(players["uuv"].marking) is None
     # alone, the guided vehicle may never get its message: never a verdict, undecided
     alone = results(f, "compositional")
     assert alone["fleet-no-deadlock"].status == "undecided"
@@ -145,3 +156,39 @@ def test_a_reception_without_its_message_does_not_replay() -> None:
     receive = next(t for t, s in enumerate(fnet.steps) if s.kind == "vehicle" and s.link)
     with pytest.raises(ReplayError):
         replay(fnet, [receive])
+
+
+def test_two_receives_of_one_message_waiting_at_once_leave_it_undecided() -> None:
+    both = """
+            PARALLEL { Receive(guide, fix, timeout = 10 s) }
+            AND { Receive(guide, fix, timeout = 10 s) }"""
+    statuses = {r.status for r in verify_fleet(fleet(uuv=both), "explicit").results}
+    assert "holds" not in statuses and "undecided" in statuses
+
+
+def test_a_message_is_not_ignored_while_a_receive_waits_for_it() -> None:
+    fnet = product(fleet())
+    ss = explore(fnet.net)
+    ignore = next(t for t, s in enumerate(fnet.steps)
+                  if s.kind == "ignore" and s.link and s.link.message == "release")
+    # a run where release is in flight while uuv waits for it: ignore is not enabled there
+    path = shortest_path_to(fnet, ss, ignore)
+    players = replay(fnet, path)
+    waiting = players["uuv"].rules.waiting["guide.release"]
+    assert not any(players["uuv"].enabled(u) for u in waiting)
+    receive = next(t for t, s in enumerate(fnet.steps) if s.kind == "vehicle" and s.link
+                   and s.link.message == "release")
+    with pytest.raises(ReplayError):
+        replay(fnet, shortest_path_to(fnet, ss, receive) + [ignore])
+
+
+def shortest_path_to(fnet: object, ss: StateSpace, t: int) -> list[int]:
+    """The BFS path to the nearest marking from which ``t`` fires."""
+    arcs = np.flatnonzero(ss.transition == t)
+    row = int(ss.src[arcs].min())
+    assert ss.parent is not None and ss.parent_transition is not None
+    path = []
+    while row > 0:
+        path.append(int(ss.parent_transition[row]))
+        row = int(ss.parent[row])
+    return path[::-1]
