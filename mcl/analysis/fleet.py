@@ -14,8 +14,9 @@ A fleet is proved on one place/transition net (docs/METHODS.md, "Fleets: what is
   player as the event ``"CHANNEL.M"``): heard by a Receive waiting for it at that moment —
   the Receive's ``ok`` transition also takes the message from flight — or *ignored* when none
   waits (``ignore``: in flight -> empty, enabled only while no Receive of it waits, read from
-  a complement place of each waiting place); on a LOSSY channel ``lose`` empties it at any
-  time.
+  a complement place of each waiting place); on a LOSSY channel, or one with an EVERY
+  (a message closer than that to the previous one is dropped at run time), ``lose``
+  empties it at any time.
 
 Vehicles never share a transition (a one-way link at 0.5 Hz cannot carry a rendezvous). The
 same construction with one vehicle and *arrivals* instead of senders (a message may come at
@@ -52,6 +53,8 @@ class ChannelSpec(Protocol):
     def lossy(self) -> bool: ...
     @property
     def messages(self) -> tuple[str, ...]: ...
+    @property
+    def interval(self) -> float: ...
 
 
 class FleetSpec(Protocol):
@@ -77,6 +80,7 @@ class Link:
     flight: int
     empty: int
     waiting: tuple[int, ...] = ()
+    interval: float = 0.0  # EVERY: a message closer than this to the previous is dropped
 
     @property
     def event(self) -> str:
@@ -132,8 +136,10 @@ class FleetNet:
         step = self.steps[t]
         if step.link is not None and step.kind != "vehicle":
             ln = step.link
+            lost = ("lost on its way to" if ln.lossy else
+                    f"dropped (closer than EVERY {ln.interval:g} s to the previous one) for")
             what = {"ignore": f"reaches {ln.receiver}, where no Receive waits: ignored",
-                    "lose": f"lost on its way to {ln.receiver}",
+                    "lose": f"{lost} {ln.receiver}",
                     "arrive": f"on its way to {ln.receiver}"}[step.kind]
             return f"channel {ln.channel}: {ln.message} {what}"
         assert step.vehicle is not None
@@ -227,7 +233,7 @@ def _link(net: Net, ch: ChannelSpec, message: str, receiver: str, s: Slice) -> L
     event = f"{ch.name}.{message}"
     waiting = tuple(sorted({s.first + p for tr in s.net.transitions if tr.event == event
                             for p, _ in tr.inputs}))
-    return Link(ch.name, message, receiver, ch.lossy, flight, empty, waiting)
+    return Link(ch.name, message, receiver, ch.lossy, flight, empty, waiting, ch.interval)
 
 
 def _channel_transitions(fnet: FleetNet, ln: Link, arrivals: bool, idle: list[int]) -> None:
@@ -241,9 +247,9 @@ def _channel_transitions(fnet: FleetNet, ln: Link, arrivals: bool, idle: list[in
     net.add_transition(f"{base}.ignore", [ln.flight, *idle], [ln.empty, *idle],
                        label=f"{ln.message} ignored")
     fnet.steps.append(Step("ignore", link=ln))
-    if ln.lossy:
+    if ln.lossy or ln.interval > 0:  # lost, or dropped as too close to the previous one
         net.add_transition(f"{base}.lose", [ln.flight], [ln.empty],
-                           label=f"{ln.message} lost")
+                           label=f"{ln.message} {'lost' if ln.lossy else 'dropped'}")
         fnet.steps.append(Step("lose", link=ln))
 
 

@@ -29,10 +29,12 @@ UUV_WAITS = """
             Surface()"""
 
 
-def fleet_text(asv: str = ASV, uuv: str = UUV, lossy: bool = True) -> str:
+def fleet_text(asv: str = ASV, uuv: str = UUV, lossy: bool = True, every: bool = True) -> str:
+    """The fleet; ``lossy``: its channel is LOSSY; ``every``: it has EVERY 2 s."""
+    options = (" EVERY 2 s" if every else "") + (" LOSSY" if lossy else "")
     return f"""// a surface vehicle guides an underwater vehicle
 FLEET mcm {{
-    CHANNEL guide FROM asv TO uuv ACOUSTIC DELAY 1 s .. 3 s EVERY 2 s{' LOSSY' if lossy else ''}
+    CHANNEL guide FROM asv TO uuv ACOUSTIC DELAY 1 s .. 3 s{options}
         MESSAGES release, fix;
     VEHICLE asv {{
         MISSION guide_to_mine {{{asv}
@@ -46,8 +48,9 @@ FLEET mcm {{
 """
 
 
-def fleet(asv: str = ASV, uuv: str = UUV, lossy: bool = True) -> CompiledFleet:
-    return compile_fleet_source(Source("mcm.mcl", fleet_text(asv, uuv, lossy)))
+def fleet(asv: str = ASV, uuv: str = UUV, lossy: bool = True, every: bool = True
+          ) -> CompiledFleet:
+    return compile_fleet_source(Source("mcm.mcl", fleet_text(asv, uuv, lossy, every)))
 
 
 def where(text: str, needle: str) -> str:
