@@ -119,6 +119,7 @@ def test_auto_takes_the_compositional_route_when_the_product_is_over_budget() ->
     assert small.note == "" and small.markings > 1000
 
 
+@pytest.mark.slow  # a cut search goes on in numba's engine: its first compilation, ~1.5 s
 def test_a_cut_product_decides_nothing_that_holds() -> None:
     verdict = verify_fleet(fleet(), "explicit", max_markings=500)
     statuses = {r.name: r.status for r in verdict.results}
