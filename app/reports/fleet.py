@@ -39,3 +39,15 @@ def fleet_text(report: dict[str, Any]) -> str:
 
 def _steps(steps: list[dict[str, Any]], first: int) -> list[str]:
     return [f"         {i:3}. {s['text']}" for i, s in enumerate(steps, first)]
+
+
+def fleet_entry(report: dict[str, Any]) -> list[dict[str, Any]]:
+    """A fleet's own properties as one more report for the CI formats (named ``FILE fleet
+    NAME``, after its vehicles'); none for a mission, or a fleet not verified."""
+    proof = report.get("fleet_properties")
+    if not proof:
+        return []
+    status = ("verified" if proof["verified"] else "undecided" if proof["undecided"]
+              else "property-fails")
+    return [{"file": report["file"], "vehicle": f"fleet {proof['fleet']}", "status": status,
+             "verification": proof}]

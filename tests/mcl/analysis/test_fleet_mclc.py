@@ -57,3 +57,18 @@ def test_the_shipped_fleet_is_proved_and_compositional_is_for_fleets_only(
                          "compositional")
     assert status == 2 and "--method compositional proves a fleet" in err
     assert "Traceback" not in err
+
+
+@pytest.mark.slow  # three explicit routes: about 1 s
+def test_ci_formats_report_the_fleets_own_properties(capsys: pytest.CaptureFixture[str],
+                                                     tmp_path: Path) -> None:
+    text = fleet_text(uuv=UUV_NO_SURFACING)
+    path = tmp_path / "mcm.mcl"
+    path.write_text(text)
+    status, out, _ = run(capsys, str(path), "--format", "github")
+    assert status == 1
+    fleet_lines = [x for x in out.splitlines() if "title=mclc fleet-silence" in x]
+    assert len(fleet_lines) == 1 and fleet_lines[0].startswith("::error file=")
+    assert f"{path} fleet mcm: property-fails" in out
+    status, out, _ = run(capsys, str(path), "--format", "junit")
+    assert 'name="fleet-silence"' in out and f'classname="{path} fleet mcm"' in out
