@@ -26,6 +26,7 @@ from petri.net import Origin
 from mcl import ast, checker, compiler, parser, printer
 from mcl.analysis import duration
 from mcl.api import Compiled, library_of
+from mcl.fleet_tasks import FleetScope
 from mcl.values import UNITS
 
 BUILTIN_SOURCES = ("Link", "Mission")  # event sources a channel may not be named after
@@ -165,7 +166,7 @@ def check_fleet(fleet: ast.Fleet, source: Source, params: Params | None = None,
             library = library_of(vehicle.mission, source)
             checked[name] = checker.check_mission(
                 vehicle.mission, library, source, params.get(name), require_values,
-                fleet=checker.FleetScope(name, channels))
+                fleet=FleetScope(name, channels))
         except MclError as exc:
             errors.extend(exc.diagnostics)
             continue

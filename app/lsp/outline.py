@@ -13,7 +13,7 @@ from mcl.values import UNITS, to_text
 from app.lsp.document import Document
 
 KIND = types.SymbolKind
-FLEET_TASKS = (("Send", "Send(CHANNEL, MESSAGE): put a message on a channel from this vehicle"),
+FLEET_TASK_DETAILS = (("Send", "Send(CHANNEL, MESSAGE): put a message on a channel from this vehicle"),
                ("Receive", "Receive(CHANNEL, MESSAGE[, timeout = DURATION]): wait for it"))
 CONSTRUCTS = {  # the construct tree's nodes: (name shown, symbol kind)
     ast.TryCatchDo: ("TRY … CATCH … DO", KIND.Namespace),
@@ -55,7 +55,7 @@ def fleet_completion(fleet: ast.Fleet) -> list[types.CompletionItem]:
     items = [types.CompletionItem(k, kind=types.CompletionItemKind.Keyword)
              for k in FLEET_KEYWORDS]
     items += [types.CompletionItem(name, kind=types.CompletionItemKind.Function,
-                                   detail=detail) for name, detail in FLEET_TASKS]
+                                   detail=detail) for name, detail in FLEET_TASK_DETAILS]
     for c in fleet.channels:
         items.append(types.CompletionItem(
             c.name.name, kind=types.CompletionItemKind.Interface,
