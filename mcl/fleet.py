@@ -17,6 +17,8 @@ the duration analysis, mcl/analysis/duration.py).
 from __future__ import annotations
 
 import math
+import os
+import stat
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -78,14 +80,17 @@ class CompiledFleet:
 
 def is_fleet(path_or_source: str | Source) -> bool:
     """Whether a file (a path, or its source) is a fleet: its first word is FLEET. A file
-    that cannot be read is not one (reading it again reports why)."""
+    that cannot be read is not one (reading it again reports why), nor is one that is not a
+    regular file: a named pipe (``mclc <(...)``) can be read only once, so ask of its source."""
     if isinstance(path_or_source, Source):
         text = path_or_source.text
     else:
         try:
+            if not stat.S_ISREG(os.stat(path_or_source).st_mode):
+                return False
             with open(path_or_source, encoding="utf-8", errors="replace") as f:
                 text = f.read(65536)
-        except OSError:
+        except (OSError, ValueError):  # ValueError: a path with a NUL byte
             return False
     return _first_word(text) == "FLEET"
 
