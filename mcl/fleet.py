@@ -92,27 +92,7 @@ def is_fleet(path_or_source: str | Source) -> bool:
                 text = f.read(65536)
         except (OSError, ValueError):  # ValueError: a path with a NUL byte
             return False
-    return _first_word(text) == "FLEET"
-
-
-def _first_word(text: str) -> str:
-    """The first word of MCL text, comments skipped."""
-    i, n = 0, len(text)
-    while i < n:
-        if text[i].isspace():
-            i += 1
-        elif text.startswith("//", i):
-            end = text.find("\n", i)
-            i = n if end < 0 else end
-        elif text.startswith("/*", i):
-            end = text.find("*/", i + 2)
-            i = n if end < 0 else end + 2
-        else:
-            j = i
-            while j < n and (text[j].isalnum() or text[j] == "_"):
-                j += 1
-            return text[i:j]
-    return ""
+    return parser.first_word(text) == "FLEET"
 
 
 Params = dict[str, dict[str, tuple[ast.Value, Source]]]  # vehicle -> parameter -> value

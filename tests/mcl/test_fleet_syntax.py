@@ -50,3 +50,23 @@ def test_a_channel_with_a_delay_not_written_as_a_range_says_what_is_expected() -
 def test_an_unknown_link_kind_names_the_three() -> None:
     d = _error(RELAY.replace("ACOUSTIC", "SONAR", 1))
     assert "ACOUSTIC, RADIO, TETHER" in d.hint
+
+
+@pytest.mark.parametrize(("text", "code", "message", "col"), [
+    ("FLEET f { VEHICLE a { PARAM x = 1; } }", "missing-mission", "the VEHICLE has no MISSION",
+     36),
+    ("FLEET f { VEHICLE a { MISSION { Wait(1 s) } MISSION { Wait(2 s) } } }",
+     "text-after-mission", "a VEHICLE holds one MISSION", 45),
+    ("/* a fleet */ FLEET f { VEHICLE a { MISSION { Wait(1 s) } } } MISSION { A() }",
+     "text-after-mission", "text after the end of the fleet", 63),
+])
+def test_a_vehicle_holds_one_mission_and_a_file_one_fleet(text: str, code: str, message: str,
+                                                          col: int) -> None:
+    d = _error(text)
+    assert (d.code, d.message) == (code, message)
+    assert d.span is not None and (d.span.line, d.span.col) == (1, col)
+
+
+def test_the_fleet_rules_leave_a_single_mission_its_own_messages() -> None:
+    d = _error("MISSION { A() } MISSION { B() }")
+    assert (d.code, d.message) == ("text-after-mission", "text after the end of the mission")
