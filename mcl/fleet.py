@@ -11,7 +11,9 @@ named after the vehicle, and the fleet's :class:`Channel` declarations in second
 The static rules of a fleet are here: names declared once, channels between declared
 vehicles, delays that are durations with ``min <= max``, and no wait for ever on a lossy
 channel (a Receive without timeout there must be cut short by a racing timer, the rule of
-the duration analysis, mcl/analysis/duration.py).
+the duration analysis, mcl/analysis/duration.py); and two warnings, a message nobody sends
+that a vehicle waits for, and one sent that nobody waits for. Send and Receive themselves
+resolve in mcl/fleet_tasks.py.
 """
 
 from __future__ import annotations
@@ -107,6 +109,7 @@ def compile_fleet_file(path: str, params: Params | None = None,
 
 def compile_fleet_source(source: Source, params: Params | None = None,
                          require_values: bool = False) -> CompiledFleet:
+    """:func:`compile_fleet_file` of a source already read (a pipe is read once)."""
     unit = parser.parse_unit(source)
     if not isinstance(unit, ast.Fleet):
         raise MclError([source.diagnostic(
@@ -117,6 +120,8 @@ def compile_fleet_source(source: Source, params: Params | None = None,
 
 def compile_fleet(fleet: ast.Fleet, source: Source, params: Params | None = None,
                   require_values: bool = False) -> CompiledFleet:
+    """A parsed fleet checked (:func:`check_fleet`), then each vehicle's mission compiled to
+    its own net, named after the vehicle."""
     checked = check_fleet(fleet, source, params, require_values)
     vehicles = {}
     for name, c in checked.items():
