@@ -16,9 +16,9 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from diagnostics import MclError, Source, Span
+from diagnostics import MclError, Source, Span, read_source
 from mcl.api import parse_params
-from mcl.fleet import CompiledFleet, Params, compile_fleet_file
+from mcl.fleet import CompiledFleet, Params, compile_fleet_source
 
 from app.fleet_proof import prove_fleet, vehicle_method
 from app.mission_report import SEVERITY, verify_and_report
@@ -28,11 +28,14 @@ NET_OUTPUTS = (("dot", "--dot"), ("dot_tasks", "--dot-tasks"), ("pnml", "--pnml"
                ("net_json", "--net-json"), ("graphml", "--graphml"))
 
 
-def check_fleet(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str, Any]]:
-    """Compile the fleet at ``path`` and verify each vehicle: the worst status and the
-    report."""
+def check_fleet(path: str | Source, args: argparse.Namespace, fmt: str
+                ) -> tuple[Exit, dict[str, Any]]:
+    """Compile the fleet at ``path`` (or read already: a pipe is read once) and verify each
+    vehicle: the worst status and the report."""
+    source = path if isinstance(path, Source) else read_source(path)
+    path = source.name
     _refuse_single_mission_options(path, args)
-    fleet = compile_fleet_file(path, fleet_params(args.param), require_values=False)
+    fleet = compile_fleet_source(source, fleet_params(args.param), require_values=False)
     report = fleet_summary(fleet)
     if fmt == "text":
         n, c = len(fleet.vehicles), len(fleet.channels)

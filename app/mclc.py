@@ -19,8 +19,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from diagnostics import Diagnostic, MclError, Span
-from mcl.api import Compiled, compile_file, parse_params
+from diagnostics import Diagnostic, MclError, Span, read_source
+from mcl.api import Compiled, compile_source, parse_params
 from mcl.fleet import is_fleet
 
 from app.arguments import memory_size
@@ -258,7 +258,10 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str,
     if path.lower().endswith(PNML_FILES):
         return _pnml(path, args, fmt)
     params = parse_params(args.param, args.params)
-    compiled = compile_file(path, args.tasks or None, params)
+    source = read_source(path)
+    if is_fleet(source):  # a pipe (mclc <(...)) is read once: its first word says which
+        return check_fleet(source, args, fmt)
+    compiled = compile_source(source, args.tasks or None, params)
     _write_outputs(compiled, args)
     return verify_and_report(compiled, args, fmt, _write_graph)
 

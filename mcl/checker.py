@@ -20,7 +20,8 @@ from diagnostics import Diagnostic, MclError, Source, Span
 
 from mcl import ast
 from mcl.parser import KEYWORDS, suggest
-from mcl.declarations import ActionSpec, Formal, Library, TaskForm
+from mcl.declarations import Formal, Library, TaskForm
+from mcl.fleet_tasks import FLEET_TASKS, FleetScope, Problem, fleet_form
 from mcl.values import FIELDS, check, describe, limits, to_text
 
 
@@ -39,18 +40,6 @@ class Resolved:
     form: TaskForm
     args: dict[str, ast.Value]  # formal name -> value given (or its default)
     timeout: ast.Value | None = None  # a per-call timeout (named argument timeout = ...)
-
-
-@dataclass(frozen=True)
-class FleetScope:
-    """What a vehicle of a fleet may name in ``Send`` and ``Receive``: its name and the
-    fleet's channels (docs/LANGUAGE.md, "Fleets")."""
-
-    vehicle: str
-    channels: dict[str, ast.ChannelDecl]
-
-
-FLEET_TASKS = ("Send", "Receive")  # built in to every vehicle of a fleet, nowhere else
 
 
 @dataclass
@@ -214,63 +203,18 @@ class _Checker:
         self.checked.calls[id(call)] = Resolved(form, args, timeout)
 
     def fleet_call(self, call: ast.Call, scope: FleetScope) -> None:
-        """``Send(CHANNEL, MESSAGE)`` and ``Receive(CHANNEL, MESSAGE[, timeout = D])``: the
-        channel must be one of the fleet's, from (Send) or to (Receive) this vehicle, and the
-        message one of its messages. Resolved to a task form of their own: Send ends at once
-        with a "send" action, Receive waits for the event ``CHANNEL.MESSAGE``."""
-        shape = ("Send(CHANNEL, MESSAGE)" if call.name == "Send"
-                 else "Receive(CHANNEL, MESSAGE[, timeout = DURATION])")
-        positional = [a.value for a in call.args if a.name is None]
-        named = [a for a in call.args if a.name is not None]
-        allowed = ("timeout",) if call.name == "Receive" else ()
-        bad = [a for a in named if a.name not in allowed]
-        if (len(positional) != 2 or bad or len(named) > 1
-                or any(not isinstance(v, ast.Ref) for v in positional)):
-            where = bad[0].span if bad else _name_span(call)
-            self.error(f"{call.name} takes a channel and one of its messages", where,
-                       f"write {shape}", code="fleet-bad-arguments")
+        """``Send`` and ``Receive`` in a fleet's vehicle (mcl/fleet_tasks.py)."""
+        resolved = fleet_form(call, scope, _name_span(call))
+        if isinstance(resolved, Problem):
+            self.error(resolved.message, resolved.span, resolved.hint, code=resolved.code)
             return
-        channel_ref, message_ref = positional
-        assert isinstance(channel_ref, ast.Ref) and isinstance(message_ref, ast.Ref)
-        channel = scope.channels.get(channel_ref.name)
-        if channel is None:
-            hint = suggest(channel_ref.name, list(scope.channels)) or (
-                f"the fleet's channels: {', '.join(scope.channels) or 'none'}")
-            self.error(f"unknown channel '{channel_ref.name}'", channel_ref.span, hint,
-                       code="fleet-unknown-channel")
-            return
-        messages = [m.name for m in channel.messages]
-        if message_ref.name not in messages:
-            self.error(f"channel '{channel.name.name}' has no message '{message_ref.name}'",
-                       message_ref.span, suggest(message_ref.name, messages)
-                       or f"its messages: {', '.join(messages)}", code="fleet-unknown-message")
-            return
-        receivers = [r.name for r in channel.receivers]
-        if call.name == "Send" and channel.sender.name != scope.vehicle:
-            self.error(f"{scope.vehicle} cannot send on '{channel.name.name}': the channel is "
-                       f"from {channel.sender.name}", channel_ref.span,
-                       "send on a channel FROM this vehicle (channels are one way)",
-                       code="fleet-not-sender")
-            return
-        if call.name == "Receive" and scope.vehicle not in receivers:
-            self.error(f"{scope.vehicle} cannot receive on '{channel.name.name}': the channel "
-                       f"is to {', '.join(receivers)}", channel_ref.span,
-                       "receive on a channel TO this vehicle", code="fleet-not-receiver")
-            return
-        timeout = named[0].value if named else None
+        form, timeout = resolved
         if timeout is not None:
             problems = check(timeout, "duration", self.checked.param_kinds)
             for p in problems:
                 self.error(p.message, p.node.span, code="bad-argument")
             if not problems:
                 self.uses.append(_Use(call, None, timeout))
-        if call.name == "Send":
-            action = ActionSpec("send", channel.name.name, (("message", message_ref),),
-                                call.span)
-            form = TaskForm("Send", (), start=(action,), span=call.span)
-        else:
-            form = TaskForm("Receive", (), ok=(f"{channel.name.name}.{message_ref.name}",),
-                            span=call.span)
         self.checked.calls[id(call)] = Resolved(form, {}, timeout)
 
     # -- the numbers values carry -----------------------------------------------------------

@@ -11,12 +11,16 @@ named after the vehicle, and the fleet's :class:`Channel` declarations in second
 The static rules of a fleet are here: names declared once, channels between declared
 vehicles, delays that are durations with ``min <= max``, and no wait for ever on a lossy
 channel (a Receive without timeout there must be cut short by a racing timer, the rule of
-the duration analysis, mcl/analysis/duration.py).
+the duration analysis, mcl/analysis/duration.py); and two warnings, a message nobody sends
+that a vehicle waits for, and one sent that nobody waits for. Send and Receive themselves
+resolve in mcl/fleet_tasks.py.
 """
 
 from __future__ import annotations
 
 import math
+import os
+import stat
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -26,6 +30,7 @@ from petri.net import Origin
 from mcl import ast, checker, compiler, parser, printer
 from mcl.analysis import duration
 from mcl.api import Compiled, library_of
+from mcl.fleet_tasks import FleetScope
 from mcl.values import UNITS
 
 BUILTIN_SOURCES = ("Link", "Mission")  # event sources a channel may not be named after
@@ -77,36 +82,19 @@ class CompiledFleet:
 
 def is_fleet(path_or_source: str | Source) -> bool:
     """Whether a file (a path, or its source) is a fleet: its first word is FLEET. A file
-    that cannot be read is not one (reading it again reports why)."""
+    that cannot be read is not one (reading it again reports why), nor is one that is not a
+    regular file: a named pipe (``mclc <(...)``) can be read only once, so ask of its source."""
     if isinstance(path_or_source, Source):
         text = path_or_source.text
     else:
         try:
+            if not stat.S_ISREG(os.stat(path_or_source).st_mode):
+                return False
             with open(path_or_source, encoding="utf-8", errors="replace") as f:
                 text = f.read(65536)
-        except OSError:
+        except (OSError, ValueError):  # ValueError: a path with a NUL byte
             return False
-    return _first_word(text) == "FLEET"
-
-
-def _first_word(text: str) -> str:
-    """The first word of MCL text, comments skipped."""
-    i, n = 0, len(text)
-    while i < n:
-        if text[i].isspace():
-            i += 1
-        elif text.startswith("//", i):
-            end = text.find("\n", i)
-            i = n if end < 0 else end
-        elif text.startswith("/*", i):
-            end = text.find("*/", i + 2)
-            i = n if end < 0 else end + 2
-        else:
-            j = i
-            while j < n and (text[j].isalnum() or text[j] == "_"):
-                j += 1
-            return text[i:j]
-    return ""
+    return parser.first_word(text) == "FLEET"
 
 
 Params = dict[str, dict[str, tuple[ast.Value, Source]]]  # vehicle -> parameter -> value
@@ -121,6 +109,7 @@ def compile_fleet_file(path: str, params: Params | None = None,
 
 def compile_fleet_source(source: Source, params: Params | None = None,
                          require_values: bool = False) -> CompiledFleet:
+    """:func:`compile_fleet_file` of a source already read (a pipe is read once)."""
     unit = parser.parse_unit(source)
     if not isinstance(unit, ast.Fleet):
         raise MclError([source.diagnostic(
@@ -131,6 +120,8 @@ def compile_fleet_source(source: Source, params: Params | None = None,
 
 def compile_fleet(fleet: ast.Fleet, source: Source, params: Params | None = None,
                   require_values: bool = False) -> CompiledFleet:
+    """A parsed fleet checked (:func:`check_fleet`), then each vehicle's mission compiled to
+    its own net, named after the vehicle."""
     checked = check_fleet(fleet, source, params, require_values)
     vehicles = {}
     for name, c in checked.items():
@@ -165,7 +156,7 @@ def check_fleet(fleet: ast.Fleet, source: Source, params: Params | None = None,
             library = library_of(vehicle.mission, source)
             checked[name] = checker.check_mission(
                 vehicle.mission, library, source, params.get(name), require_values,
-                fleet=checker.FleetScope(name, channels))
+                fleet=FleetScope(name, channels))
         except MclError as exc:
             errors.extend(exc.diagnostics)
             continue
@@ -173,7 +164,49 @@ def check_fleet(fleet: ast.Fleet, source: Source, params: Params | None = None,
         errors.extend(unbounded_waits(checked[name], channels))
     if errors:
         raise MclError(sorted(errors, key=_order))
+    for name, diagnostics in unused_messages(checked, source).items():
+        checked[name].diagnostics = sorted(checked[name].diagnostics + diagnostics,
+                                           key=_order)
     return checked
+
+
+def unused_messages(checked: dict[str, checker.Checked],
+                    source: Source) -> dict[str, list[Diagnostic]]:
+    """Warnings, by vehicle: a Receive of a message its channel's sender never sends (it can
+    only end on its timeout or its race), and a message sent that no receiver waits for."""
+    sent: set[str] = set()
+    awaited: set[str] = set()
+    for c in checked.values():
+        for call in c.mission.calls():
+            form = c.calls[id(call)].form
+            if form.name == "Send" and call.name == "Send":
+                sent.add(f"{form.start[0].behaviour}.{_message(call)}")
+            elif form.name == "Receive" and call.name == "Receive":
+                awaited.add(form.ok[0])
+    out: dict[str, list[Diagnostic]] = {}
+    for name, c in checked.items():
+        for call in c.mission.calls():
+            form = c.calls[id(call)].form
+            if call.name == "Receive" and form.name == "Receive" and form.ok[0] not in sent:
+                out.setdefault(name, []).append(source.diagnostic(
+                    "warning", f"{printer.call(call)} waits for a message no vehicle sends",
+                    call.span, "send it with Send(...) in the channel's sender, or remove "
+                    "this wait (only its timeout or a race can end it)", "fleet-never-sent"))
+            if call.name == "Send" and form.name == "Send":
+                event = f"{form.start[0].behaviour}.{_message(call)}"
+                if event not in awaited:
+                    out.setdefault(name, []).append(source.diagnostic(
+                        "warning", f"{printer.call(call)} sends a message no vehicle waits "
+                        "for", call.span, "receive it with Receive(...) in a vehicle the "
+                        "channel goes to, or remove this send", "fleet-never-received"))
+    return out
+
+
+def _message(call: ast.Call) -> str:
+    """The message a checked Send names (its second argument)."""
+    value = call.args[1].value
+    assert isinstance(value, ast.Ref)
+    return value.name
 
 
 def _order(d: Diagnostic) -> tuple[int, int, int]:

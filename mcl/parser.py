@@ -30,6 +30,7 @@ KEYWORDS = ("MISSION", "PARAM", "USES", "TRY", "CATCH", "DO", "PARALLEL", "AND",
 # the words of a fleet (docs/LANGUAGE.md, "Fleets"): keywords only where a fleet is written
 FLEET_KEYWORDS = ("FLEET", "VEHICLE", "CHANNEL", "FROM", "TO", "ACOUSTIC", "RADIO", "TETHER",
                   "DELAY", "EVERY", "LOSSY", "MESSAGES")
+NAME_LIST_END = {"SEMICOLON", "COMMA", "ACOUSTIC", "RADIO", "TETHER"}  # after a CHANNEL's names
 MAX_DEPTH = 100  # blocks nested deeper than this are refused ("absurd nesting")
 
 # code -> (message, hint, examples that fail in the same parser state)
@@ -185,6 +186,10 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
         return error(source, f"keywords are upper case: write {token.upper()}, not {token}",
                      token_span(source, token), f"replace '{token}' with '{token.upper()}'",
                      code="lower-case-keyword")
+    if isinstance(token, Token):
+        fleet = _fleet_mistake(source, token, previous, getattr(exc, "expected", None) or set())
+        if fleet is not None:
+            return fleet
     code = _after_item(exc, token, known_mistake(exc))
     if code is not None:
         message, hint, _ = KNOWN_MISTAKES[code]
@@ -209,6 +214,58 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
     expected = sorted(_pretty_terminal(t) for t in getattr(exc, "expected", ()) or ())
     return error(source, f"unexpected {_pretty_token(token)}", token_span(source, token),
                  f"expected {_one_of(expected)}" if expected else "", code="syntax")
+
+
+def _fleet_mistake(source: Source, token: Token, previous: Token | None,
+                   expects: set[str]) -> MclError | None:
+    """The mistakes only a fleet file can make, told by the token that came and what the
+    parser expected instead (None: none of them)."""
+    if token.type == "NAME" and token.upper() in expects and token.upper() in FLEET_KEYWORDS:
+        return error(source, f"keywords are upper case: write {token.upper()}, not {token}",
+                     token_span(source, token), f"replace '{token}' with '{token.upper()}'",
+                     code="lower-case-keyword")
+    if first_word(source.text) != "FLEET":
+        return None
+    if (token.type in ("CHANNEL", "VEHICLE", "RBRACE") and previous is not None
+            and {"SEMICOLON", "COMMA"} <= expects <= NAME_LIST_END):
+        # the end of a CHANNEL's MESSAGES list (the only place a list of names can end)
+        return error(source, "';' missing at the end of the CHANNEL declaration",
+                     source.span(previous.end_line or token.line or 1,
+                                 previous.end_column or token.column or 1),
+                     "end each CHANNEL ... MESSAGES a, b with ';'", code="missing-semicolon")
+    if token.type == "RBRACE" and "MISSION" in expects:  # a VEHICLE's headers, no MISSION
+        return error(source, "the VEHICLE has no MISSION", token_span(source, token),
+                     "write its mission inside it: VEHICLE name { ...; MISSION { ... } }",
+                     code="missing-mission")
+    if token.type == "MISSION" and {"ON", "RBRACE"} <= expects:  # after a vehicle's mission
+        return error(source, "a VEHICLE holds one MISSION", token_span(source, token),
+                     "close the VEHICLE with '}' after its mission (and its ON STOP)",
+                     code="text-after-mission")
+    if expects == {"<END-OF-FILE>"} or expects == {"$END"}:  # after the fleet's '}'
+        return error(source, "text after the end of the fleet", token_span(source, token),
+                     "a file holds one FLEET; remove what follows its closing '}'",
+                     code="text-after-mission")
+    return None
+
+
+def first_word(text: str) -> str:
+    """The first word of MCL text, comments skipped (``FLEET`` for a fleet file)."""
+    i, n = 0, len(text)
+    while i < n:
+        if text[i].isspace():
+            i += 1
+        elif text.startswith("//", i):
+            end = text.find("\n", i)
+            i = n if end < 0 else end
+        elif text.startswith("/*", i):
+            end = text.find("*/", i + 2)
+            i = n if end < 0 else end + 2
+        else:
+            j = i
+            while j < n and (text[j].isalnum() or text[j] == "_"):
+                j += 1
+            return text[i:j]
+    return ""
 
 
 def known_mistake(exc: UnexpectedInput) -> str | None:
@@ -276,7 +333,7 @@ def _end_span(source: Source) -> Span:
 
 _TERMINAL_NAMES = {"LBRACE": "'{'", "RBRACE": "'}'", "LPAR": "'('", "RPAR": "')'",
                    "LSQB": "'['", "RSQB": "']'", "SEMICOLON": "';'", "COMMA": "','",
-                   "EQUAL": "'='", "STRING": "a \"string\"", "NAME": "a name", "SIGNED_NUMBER": "a number",
+                   "EQUAL": "'='", "_DOTS": "'..'", "STRING": "a \"string\"", "NAME": "a name", "SIGNED_NUMBER": "a number",
                    "UNIT": "a unit", "$END": "the end of the file"}
 
 

@@ -22,7 +22,8 @@ MISSIONS = REPO / "missions"
 
 def single_missions() -> list[Path]:
     """The shipped single-vehicle missions, sorted (fleet files, FLEET ..., are not)."""
-    from mcl.fleet import is_fleet  # the fleet module is needed only by tests that ask
+    # loaded here, not at the top: every test imports this module, few need the compiler
+    from mcl.fleet import is_fleet
 
     return sorted(p for p in MISSIONS.glob("*.mcl") if not is_fleet(str(p)))
 SHARED = REPO.parent / "shared"

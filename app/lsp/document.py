@@ -31,11 +31,23 @@ class Document:
     checked: checker.Checked | None = None
     diagnostics: list[Diagnostic] = field(default_factory=list)
     fleet: ast.Fleet | None = None  # a fleet file (FLEET ...): checked, never proved here
+    # a fleet's vehicles, each as a document of its own mission (for hover and definition)
+    vehicles: dict[str, Document] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
         """Checked without an error: the proofs may run."""
         return self.checked is not None
+
+    def vehicle_at(self, line: int, col: int) -> Document | None:
+        """In a fleet, the document of the vehicle written at 1-based ``line:col``."""
+        if self.fleet is None:
+            return None
+        for v in self.fleet.vehicles:
+            s = v.span
+            if (s.line, s.col) <= (line, col) <= (s.end_line, s.end_col):
+                return self.vehicles.get(v.name.name)
+        return None
 
 
 def analyse(path: str, text: str, version: int | None = None) -> Document:
@@ -71,7 +83,16 @@ def analyse_fleet(doc: Document) -> Document:
     unit = parser.parse_unit(doc.source)
     assert isinstance(unit, ast.Fleet)
     doc.fleet = unit
+    for v in unit.vehicles:  # each vehicle's tree and library, kept if the check fails
+        vehicle = doc.vehicles[v.name.name] = Document(doc.path, doc.version, doc.source,
+                                                       v.mission)
+        try:
+            vehicle.library = library_of(v.mission, doc.source)
+        except MclError:
+            pass  # reported by the check below
     checked = check_fleet(unit, doc.source)
+    for name, c in checked.items():
+        doc.vehicles[name].checked = c
     doc.diagnostics = [d for c in checked.values() for d in c.diagnostics]
     return doc
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 from mcl import ast
 from mcl.analysis import duration
 from mcl.declarations import Expr, Field, Library, TaskForm
+from mcl.fleet_tasks import FLEET_TASKS, SHAPES
 from mcl.quantities import seconds_text
 from mcl.values import to_text
 
@@ -49,6 +50,20 @@ def form_text(form: TaskForm, library: Library) -> list[str]:
     return lines
 
 
+def fleet_text(form: TaskForm) -> list[str]:
+    """Send or Receive in a fleet's vehicle (mcl/fleet_tasks.py): what it does."""
+    if form.name == "Send":
+        action = form.start[0]
+        message = next((v for k, v in action.bindings if k == "message"), None)
+        what = to_text(message) if isinstance(message, ast.Ref) else "?"
+        return [f"```mcl\n{SHAPES['Send']}\n```",
+                f"- puts **{what}** on channel **{action.behaviour}** and ends at once (ok)",
+                "- the player gives it to the fleet's channel, never to the vehicle"]
+    return [f"```mcl\n{SHAPES['Receive']}\n```",
+            f"- ok when **{form.ok[0]}** comes; fail on its timeout",
+            "- a message that comes while nothing waits for it is ignored"]
+
+
 def bound_text(doc: Document, block: ast.Block) -> str | None:
     """The proved [best, worst] duration of a block of the checked mission."""
     if doc.checked is None:
@@ -74,7 +89,9 @@ def hover(doc: Document, found: Found) -> str | None:
         forms = doc.library.tasks.get(found.name, [])
         if doc.checked is not None and id(found.node) in doc.checked.calls:
             forms = [doc.checked.resolved(found.node).form]
-        lines = [line for form in forms for line in form_text(form, doc.library)]
+        lines = [line for form in forms for line in (
+            fleet_text(form) if doc.checked is not None and doc.checked.fleet is not None
+            and form.name in FLEET_TASKS else form_text(form, doc.library))]
         bound = bound_text(doc, found.node)
         return "\n".join(lines + ([f"\n{bound}"] if bound else [])) or None
     if found.kind == "param" and doc.mission is not None:

@@ -82,7 +82,9 @@ class MclLanguageServer(LanguageServer):
     def found(self, uri: str, position: types.Position) -> tuple[Document, Found] | None:
         """The document and what stands at an LSP position (0-based) of it."""
         doc = self.documents.get(uri)
-        if doc is None or doc.mission is None:
+        if doc is not None and doc.fleet is not None:  # in a fleet: the vehicle there
+            doc = doc.vehicle_at(position.line + 1, position.character + 1)
+        elif doc is None or doc.mission is None:
             doc = self.parsed.get(uri)
         if doc is None or doc.mission is None:
             return None

@@ -5,6 +5,8 @@ a fleet's static errors exit 2 with file:line:col."""
 from __future__ import annotations
 
 import json
+import os
+import threading
 from pathlib import Path
 
 import pytest
@@ -117,3 +119,22 @@ def test_the_shipped_relay_verifies_and_a_broken_copy_fails_from_the_command(
     proc = cli("mclc", str(broken))
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert f"{broken}:" in proc.stderr and "fleet-bad-arguments" not in proc.stdout
+
+
+def test_a_fleet_read_from_a_pipe_is_read_once(capsys: pytest.CaptureFixture[str],
+                                               tmp_path: Path) -> None:
+    pipe = tmp_path / "fleet"
+    os.mkfifo(pipe)
+
+    def feed() -> None:
+        with open(pipe, "w", encoding="utf-8") as f:
+            f.write(PAIR)
+
+    writer = threading.Thread(target=feed)
+    writer.start()
+    try:
+        status, out, err = _run(capsys, str(pipe), "--no-verify")
+    finally:
+        writer.join(timeout=10)
+    assert status == 0, err
+    assert out.splitlines()[0] == f"{pipe}: fleet pair: 2 vehicles, 1 channel"

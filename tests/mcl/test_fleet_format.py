@@ -7,10 +7,14 @@ import re
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from diagnostics import Source
+from mcl import printer
 from mcl.formatter import format_text
 from mcl.parser import parse_unit
+from tests import strategies as S
 from tests.support import MISSIONS, cli, write
 
 RELAY = MISSIONS / "fleet_relay.mcl"
@@ -80,3 +84,43 @@ def test_mcl_fmt_rewrites_a_fleet_file(tmp_path: Path) -> None:
     assert proc.returncode == 1 and str(path) in proc.stdout + proc.stderr
     assert cli("mcl", "fmt", str(path)).returncode == 0
     assert path.read_text() == LAID_OUT
+
+
+# a fleet's text as tokens: the DELAY's '..' is one token (the missions' pattern reads two)
+FLEET_TOKEN = re.compile(r"\.\.|" + S.TOKEN.pattern)
+SEPARATORS = st.sampled_from([" ", "\n", "\n\n\n", "\t", " /* c{} */ ", "// c{}\n",
+                              "\n  // c{}\n"])
+
+
+@st.composite
+def laid_out_fleets(draw: st.DrawFn) -> tuple[str, str]:
+    """A random fleet of random Ictineu missions, then the same laid out with random blanks
+    and numbered comments between its tokens."""
+    count = draw(st.integers(1, 3))
+    vehicles = "".join(
+        f"VEHICLE v{i} {{\n"
+        + printer.mission(draw(S.ictineu_missions(max_depth=2, max_calls=5))) + "}\n"
+        for i in range(count))
+    receivers = ", ".join(f"v{i}" for i in range(1, count)) or "v9"
+    every = draw(st.sampled_from(["", " EVERY 2 s"]))
+    lossy = draw(st.sampled_from(["", " LOSSY"]))
+    channel = (f"CHANNEL c FROM v0 TO {receivers} "
+               f"{draw(st.sampled_from(['ACOUSTIC', 'RADIO', 'TETHER']))} DELAY 1 s .. 3 s"
+               f"{every}{lossy} MESSAGES m, n;\n")
+    text = "FLEET f {\n" + channel + vehicles + "}\n"
+    tokens = [m.group() for m in FLEET_TOKEN.finditer(text)]
+    parts = [tokens[0]]
+    for i, tok in enumerate(tokens[1:]):
+        parts += [draw(SEPARATORS).replace("{}", str(i)), tok]
+    return text, "".join(parts)
+
+
+@pytest.mark.slow  # 60 random fleets
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(laid_out_fleets())
+def test_random_fleet_layouts_and_comments(case: tuple[str, str]) -> None:
+    plain, source = case
+    text = format_text(source)
+    assert _same(text, plain)
+    assert format_text(text) == text
+    assert COMMENT.findall(text) == COMMENT.findall(source)

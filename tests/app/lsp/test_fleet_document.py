@@ -11,9 +11,10 @@ import pytest
 pytest.importorskip("pygls")
 from lsprotocol import types
 
-from app.lsp import outline
+from app.lsp import hover, outline
 from app.lsp.diagnostics import from_mcl
 from app.lsp.document import analyse
+from app.lsp.locate import at
 from app.lsp.server import code_actions, formatting, inlay_hints
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -46,10 +47,45 @@ def test_a_vehicle_warning_is_a_diagnostic_too() -> None:
 
 def test_the_reading_features_answer_on_a_fleet() -> None:
     doc = analyse(str(RELAY), TEXT.replace("    VEHICLE leader", "VEHICLE leader"))
-    assert outline.symbols(doc) == []  # no outline of a fleet yet
-    assert isinstance(outline.completion(doc), list)
+    [fleet] = outline.symbols(doc)
+    assert fleet.name == "FLEET relay"
+    assert [k.name for k in fleet.children or []] == ["CHANNEL orders", "VEHICLE leader",
+                                                      "VEHICLE follower"]
+    follower = (fleet.children or [])[2]
+    assert [k.name for k in follower.children or []][-2:] == ["MISSION follow", "ON STOP"]
+    labels = {item.label for item in outline.completion(doc)}
+    assert {"Send", "Receive", "orders", "start", "abort", "LOSSY", "CHANNEL"} <= labels
     assert code_actions(doc, RELAY.as_uri()) == []
     assert inlay_hints(doc) == []
     [edit] = formatting(doc)
     assert edit.new_text == TEXT  # mcl fmt's layout
     assert formatting(analyse(str(RELAY), TEXT)) == []  # already laid out
+
+
+def _place(needle: str) -> tuple[int, int]:
+    lines = TEXT.split("\n")
+    number = next(i for i, line in enumerate(lines, 1) if needle in line)
+    return number, lines[number - 1].index(needle) + 1
+
+
+@pytest.mark.parametrize(("needle", "shown"), [
+    ("Send(orders, start)", "puts **start** on channel **orders**"),
+    ("Receive(orders, start", "ok when **orders.start** comes"),
+    ("GoTo(postPos)", "behaviour **GoTo**"),
+    ("postPos);", "PARAM postPos = (-5, 0, 1, 0 deg)"),
+])
+def test_hover_in_a_vehicle_reads_that_vehicles_mission(needle: str, shown: str) -> None:
+    doc = analyse(str(RELAY), TEXT)
+    line, col = _place(needle)
+    vehicle = doc.vehicle_at(line, col)
+    assert vehicle is not None and vehicle.mission is not None
+    found = at(vehicle.mission, line, col)
+    assert found is not None
+    text = hover.hover(vehicle, found)
+    assert text is not None and shown in text, text
+
+
+def test_outside_every_vehicle_there_is_no_vehicle() -> None:
+    doc = analyse(str(RELAY), TEXT)
+    assert doc.vehicle_at(*_place("CHANNEL orders")) is None
+    assert doc.vehicle_at(*_place("VEHICLE leader")) is doc.vehicles["leader"]
