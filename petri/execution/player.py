@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import heapq
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -62,7 +63,8 @@ __all__ = ["LINK_LOST", "MAX_FIRINGS_PER_INSTANT", "MISSION_ABORT", "Order", "Pl
 
 class Order(NamedTuple):
     """An action the player has decided to send to the vehicle, as it waits in the outbox:
-    ``kind`` enable, disable or configure; ``params`` resolved; ``task`` the task call that
+    ``kind`` enable, disable or configure (``send``: a message, handed to the player's
+    ``sender``, with the channel as ``behaviour``); ``params`` resolved; ``task`` the task call that
     sends it (``MISSION`` for the player's own switch-off). A tuple: made at every action."""
 
     t: float
@@ -95,6 +97,9 @@ class Player:
     # why the player aborted a loop that went round without time passing (None: it did not)
     zeno: str | None = field(init=False, default=None)
     ordered: int = field(init=False, default=0)  # the orders ever put in the outbox
+    # where a ``send`` action goes (a fleet's channel: mission/fleet.py), never the outbox;
+    # None: nowhere (a note says so)
+    sender: Callable[[Order], None] | None = None
     zeno_ordered: int = field(init=False, default=0)  # ... before the abort of such a loop
 
     def __post_init__(self) -> None:
@@ -343,6 +348,15 @@ class Player:
         watcher shared by several tasks, a latch) is not sent: it stays on until the last
         holder lets go. ``last_resort``: the player's own switch-off at the end."""
         params = {k: self._resolve(v) for k, v in action.params}
+        if action.kind == "send":  # a message on a fleet's channel, not an order
+            self._emit(now, "action", {"action": "send", "behaviour": action.behaviour,
+                                       "params": params, "task": task})
+            if self.sender is None:
+                self._emit(now, "note", {"note": f"no channel carries {action.behaviour}: "
+                                                 "the message goes nowhere", "task": task})
+            else:
+                self.sender(Order(now, task, "send", action.behaviour, params))
+            return
         if action.kind == "disable":
             holders = [] if last_resort else self.rules.held(self.marking, action.behaviour)
             if holders:
