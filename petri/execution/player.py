@@ -63,8 +63,7 @@ __all__ = ["LINK_LOST", "MAX_FIRINGS_PER_INSTANT", "MISSION_ABORT", "Order", "Pl
 
 class Order(NamedTuple):
     """An action the player has decided to send to the vehicle, as it waits in the outbox:
-    ``kind`` enable, disable or configure (``send``: a message, handed to the player's
-    ``sender``, with the channel as ``behaviour``); ``params`` resolved; ``task`` the task call that
+    ``kind`` enable, disable or configure; ``params`` resolved; ``task`` the task call that
     sends it (``MISSION`` for the player's own switch-off). A tuple: made at every action."""
 
     t: float
@@ -97,10 +96,11 @@ class Player:
     # why the player aborted a loop that went round without time passing (None: it did not)
     zeno: str | None = field(init=False, default=None)
     ordered: int = field(init=False, default=0)  # the orders ever put in the outbox
-    # where a ``send`` action goes (a fleet's channel: mission/fleet.py), never the outbox;
-    # None: nowhere (a note says so)
-    sender: Callable[[Order], None] | None = None
     zeno_ordered: int = field(init=False, default=0)  # ... before the abort of such a loop
+    # where a fleet's "send" actions go (Send(CHANNEL, MESSAGE)): the fleet's channels, never
+    # the vehicle. Each gets an Order of kind "send", behaviour the channel, params
+    # {"message": ...}. None: a net that sends refuses to start (it needs a fleet).
+    sender: Callable[[Order], None] | None = None
 
     def __post_init__(self) -> None:
         self.rules = Semantics(self.net)
@@ -118,6 +118,9 @@ class Player:
     # -- the three ways a transition fires -------------------------------------------------
     @whole
     def start(self, now: float) -> None:
+        if self.sender is None and self.sends():
+            raise ValueError(f"{self.net.name} sends messages ({', '.join(self.sends())}): it "
+                             "runs in its fleet, with the fleet's channels (mcl run FLEET.mcl)")
         self.status = "running"
         self._clock = now
         self._emit(now, "status", {"status": "running"})
@@ -348,14 +351,12 @@ class Player:
         watcher shared by several tasks, a latch) is not sent: it stays on until the last
         holder lets go. ``last_resort``: the player's own switch-off at the end."""
         params = {k: self._resolve(v) for k, v in action.params}
-        if action.kind == "send":  # a message on a fleet's channel, not an order
+        if action.kind == "send":  # a fleet's message: to its channel, never to the vehicle
+            if self.sender is None:
+                raise ValueError(f"{task} sends on {action.behaviour}: no channel to send on")
+            self.sender(Order(now, task, "send", action.behaviour, params))
             self._emit(now, "action", {"action": "send", "behaviour": action.behaviour,
                                        "params": params, "task": task})
-            if self.sender is None:
-                self._emit(now, "note", {"note": f"no channel carries {action.behaviour}: "
-                                                 "the message goes nowhere", "task": task})
-            else:
-                self.sender(Order(now, task, "send", action.behaviour, params))
             return
         if action.kind == "disable":
             holders = [] if last_resort else self.rules.held(self.marking, action.behaviour)
@@ -405,6 +406,11 @@ class Player:
     # -- telling the observers --------------------------------------------------------------
     def _emit(self, now: float, kind: str, data: dict[str, Any]) -> None:
         self.reporting.emit(Record(now, kind, data))
+
+    def sends(self) -> list[str]:
+        """The channels this net's "send" actions go to (a fleet's vehicle), sorted."""
+        return sorted({a.behaviour for t in self.net.transitions for a in t.actions
+                       if a.kind == "send"})
 
     # -- for observers ----------------------------------------------------------------------
     @property
