@@ -24,6 +24,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Protocol
 
+from diagnostics import MclError, Span
 from petri.execution.runlog import GENESIS, MAX_LINE, MAX_LOG, chain
 
 from mission.channels import RECORD_FORMAT, ChannelSpec
@@ -32,13 +33,16 @@ KINDS = ("header", "sent", "delivered", "lost", "dropped", "undelivered", "end")
 TOLERANCE = 1e-5  # s: times are written to the microsecond
 
 
-class RecordProblem(Exception):
-    """What is wrong with a fleet's logs: in ``path`` at ``line`` (None: the file)."""
+class RecordProblem(MclError):
+    """What is wrong with a fleet's logs: in ``path`` at ``line`` (None: the file);
+    ``invalid``: input refused as such (exit 2), not logs that fail to conform (exit 1)."""
 
     def __init__(self, path: str | Path, line: int | None, reason: str,
                  invalid: bool = False) -> None:
-        super().__init__(reason)
         self.path, self.line, self.reason, self.invalid = str(path), line, reason, invalid
+        span = Span.of_file(str(path)) if line is None else Span(str(path), line, 1)
+        where = str(path) if line is None else f"{path}:{line}"
+        super().__init__(reason, span=span, code="fleet-record", text=f"{where}: {reason}")
 
 
 class Fleet(Protocol):
