@@ -163,8 +163,8 @@ class KeepDepth(Behaviour):
 
 class FollowLine(Behaviour):
     """Follow the line from where it is enabled to above the mine ({T}'s origin) at ``speed``
-    (m/s), descending to ``height`` (m) above the mine's top; ``near`` within ``distance`` (m)
-    of the mine or past it, on the navigator's estimate (line-of-sight guidance, a 3 m
+    (m/s), descending to ``height`` (m) above the mine's top by half way; ``near`` within
+    ``distance`` (m) of the mine or past it, on the navigator's estimate (line-of-sight guidance, a 3 m
     look-ahead)."""
 
     name = "FollowLine"
@@ -189,7 +189,7 @@ class FollowLine(Behaviour):
             self.raise_event("near")
         heading = math.atan2(ey, ex) - math.atan2(cross, self.lookahead)
         share = clamp(along / span, 1.0) if along > 0 else 0.0
-        depth = oz + (below(p, self.param("height", 1.5), oz) - oz) * min(1.0, share * 1.25)
+        depth = oz + (below(p, self.param("height", 1.5), oz) - oz) * min(1.0, share * 2.0)
         speed = self.param("speed", 0.5) * max(math.cos(wrap(heading - p.psi)), 0.2)
         return Response({"x": speed, "z": clamp(0.5 * (depth - p.z), 0.3),
                          "yaw": steer(heading - p.psi)})
@@ -212,6 +212,7 @@ class Home(Behaviour):
 
     def on_initialise(self, t: float) -> None:
         self.enabled_at = t
+        self.last_t, self.integral = t, 0.0
 
     def on_update(self, p: Perception) -> Response:
         q = as_mcm(p)
@@ -226,11 +227,17 @@ class Home(Behaviour):
                 and q.t - q.sighted_at < 1.0:
             self.raise_event("over")
         ahead = (gx - q.x) * math.cos(q.psi) + (gy - q.y) * math.sin(q.psi)
+        # a PI on the distance ahead: the integral holds the point against a current
+        self.integral = clamp(self.integral + 0.1 * ahead * (q.t - self.last_t), 0.3)
+        self.last_t = q.t
         depth = below(q, self.param("height", 1.0), q.z)
-        return Response({"x": clamp(0.3 * ahead, 0.25), "z": clamp(0.5 * (depth - q.z), 0.3),
-                         "yaw": steer(facing - q.psi)})
+        level = max(0.0, 1.0 - abs(depth - q.z))  # close in only once down at the height
+        return Response({"x": clamp(0.5 * ahead + self.integral, 0.4) * level,
+                         "z": clamp(0.5 * (depth - q.z), 0.3), "yaw": steer(facing - q.psi)})
 
     enabled_at: float = 0.0
+    last_t: float = 0.0
+    integral: float = 0.0
 
 
 class Land(Behaviour):

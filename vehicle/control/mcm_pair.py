@@ -9,7 +9,7 @@ a fix every ``period`` s; each reaches the UUV ``delay`` s later or is lost with
 ``loss`` (a plain stand-in for the channel model of mission/channels.py), and every one from
 ``silence_from`` s on. The UUV ascends when
 no fix has come within ``acquire`` s of its release, none for ``stale`` s while it follows
-the line, or when the camera loses the mine.
+the line, when the camera loses the mine, or when a phase outlasts its task's timeout.
 """
 
 from __future__ import annotations
@@ -23,6 +23,9 @@ from aal.messages import ActionMessage
 from vehicle.control.asv_stack import AsvStack
 from vehicle.control.mcm_stack import McmStack, McmWorld, mcm_world
 from vehicle.control.uuv_stack import Navigation, UuvStack
+
+
+LIMITS = {"guide": 300.0, "home": 120.0, "land": 120.0}  # s: the tasks' timeouts (uuv.tasks)
 
 
 @dataclass
@@ -57,21 +60,26 @@ def drive_pair(seed: int = 1, faults: list[tuple[str, Any]] | None = None, loss:
                delay: float = 2.0, period: float = 2.0, stale: float = 10.0,
                switch: float = 2.0, acquire: float = 30.0, silence_from: float = math.inf,
                until: float = 300.0,
-               navigator: Navigation | None = None) -> PairRun:
+               navigation: Navigation | None = None) -> PairRun:
     """Run the phases until the UUV has landed and taken the snapshot, ascended, or
     ``until`` s have passed."""
     world = mcm_world(seed, faults)
-    run = PairRun(world, AsvStack(world, seed), UuvStack(world, seed, navigator))
+    run = PairRun(world, AsvStack(world, seed), UuvStack(world, seed, navigation))
     asv, uuv, rng = run.asv, run.uuv, random.Random(seed)
     act(asv, "enable", "KeepStation", distance=15.0)
     act(asv, "enable", "Reacquire")
-    phase, last_send, flying = "reacquire", -math.inf, []
+    phase, last_send, flying, since = "reacquire", -math.inf, [], 0.0
     while asv.t < until and phase not in ("done",):
         t = asv.t + 0.1
         for name, stack in (("asv", asv), ("uuv", uuv)):
             for e in stack.due(t):
                 run.events.append((round(e.t, 2), name, e.source, e.name))
-                phase = step(run, phase, f"{e.source}.{e.name}", switch)
+                phase, was = step(run, phase, f"{e.source}.{e.name}", switch), phase
+                since = since if phase == was else uuv.t
+        if uuv.t - since > LIMITS.get(phase, math.inf):  # the task's timeout
+            act(uuv, "disable", {"guide": "FollowLine", "home": "Home", "land": "Land"}[phase])
+            act(uuv, "enable", "Ascend")
+            phase, since = "ascend", uuv.t
         while uuv.t < asv.t - 1e-9:
             uuv.tick()
         if phase in ("acquire", "guide", "home") and asv.t - last_send >= period - 1e-9:
@@ -84,7 +92,7 @@ def drive_pair(seed: int = 1, faults: list[tuple[str, Any]] | None = None, loss:
             flying.remove((due, data))
             uuv.heard("guide", "fix", data, uuv.t)
             if phase == "acquire" and uuv.fixes:
-                phase = "guide"
+                phase, since = "guide", uuv.t
                 act(uuv, "disable", "KeepDepth")
                 act(uuv, "enable", "FollowLine", speed=0.5, height=1.5, distance=switch)
         silent = uuv.t - max(uuv.fix_at, world.released_at or 0.0)

@@ -1,38 +1,51 @@
 """The UUV's simulated stack (paper 003 §2, §4): compass, depth, camera, no positioning
-sensor; its navigator fuses the ASV's fixes heard over the one-way modem.
+sensor; its navigator fuses the fixes the ASV sends over the one-way modem.
 
-The navigator is any object with :class:`Navigation`'s methods: the EKF of
-``vehicle/perception/uuv_navigator.py`` when it is given, else dead reckoning
-(vehicle/perception/uuv_dead_reckoning.py). A heard ``fix`` (:meth:`UuvStack.heard`) goes to
-it with its ping time (the depth at the ping is the navigator's to keep, §4.1); a heard
-``release`` lets the UUV go from under the ASV and tells it the mine's depth. Everything heard is kept for the figures
-(:attr:`heard_fixes`: the hearing time, the fix).
+The navigator is the EKF of §4 (:class:`vehicle.perception.uuv_navigator.UuvNavigator`, or
+any object with :class:`Navigation`'s methods), run at the control loop's 10 Hz: every tick
+its prediction under the last thrust with the compass and the depth, the camera's sightings
+near the mine (no delay), and each heard ``fix`` with its ping time (the depth at the ping is
+the navigator's to keep, §4.1). A heard ``release`` lets the UUV go from under the ASV and
+tells it the mine's depth. Everything heard is kept for the figures (:attr:`heard_fixes`),
+and so is the estimate (:attr:`estimates`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from behaviours.base import Perception
 from behaviours.mcm import UUV, McmPerception
-from vehicle.control.mcm_stack import McmStack, McmWorld
-from vehicle.perception.uuv_dead_reckoning import DeadReckoning
+from vehicle.control.mcm_stack import DT, McmStack, McmWorld
+from vehicle.perception.uuv_model import PSI, R, U, W, X, Y, Z
+from vehicle.perception.uuv_navigator import SensorNoise, UuvNavigator
 from vehicle.sensors.multibeam import SonarFix
-from vehicle.sensors.uuv_sensors import TargetSighting, UuvSensors
+from vehicle.sensors.uuv_sensors import UuvSensors
+
+Array = npt.NDArray[np.float64]
 
 
 class Navigation(Protocol):
     """What the UUV's stack asks of its navigator (times in s on the UUV's clock)."""
 
-    def predict(self, t: float, tau: tuple[float, float, float]) -> None: ...
-    def heading(self, t: float, psi: float) -> None: ...
-    def depth(self, t: float, z: float) -> None: ...
-    def sonar(self, t: float, fix: SonarFix) -> None: ...
-    def camera(self, sighting: TargetSighting) -> None: ...
-    def estimate(self) -> tuple[float, float, float, float, float, float, float]: ...
+    def predict(self, t: float, tau: Sequence[float], compass: float | None,
+                depth: float | None) -> None: ...
+    def visual(self, t: float, rel_xy: Sequence[float], std: float | None = None) -> None: ...
+    def fix(self, t_ping: float, R: float, eps: float, asv_xy: Sequence[float], t_now: float,
+            *, asv_heading: float | None = None) -> bool: ...
+    def estimate(self) -> tuple[Array, Array]: ...
+
+
+def navigator(method: str = "repropagate") -> UuvNavigator:
+    """The UUV's EKF with a delayed-fusion method ("naive", "repropagate", "larsen"), told
+    the simulated sensors' noise."""
+    return UuvNavigator(method, DT, sensors=SensorNoise(compass_std=math.radians(1.0),
+                                                        depth_std=0.05))
 
 
 class UuvStack(McmStack):
@@ -42,15 +55,15 @@ class UuvStack(McmStack):
     gains = (60.0, 80.0, 5.0)
 
     def __init__(self, world: McmWorld, seed: int = 1,
-                 navigator: Navigation | None = None) -> None:
+                 navigation: Navigation | None = None) -> None:
         super().__init__(world, world.uuv)
         self.sensors = UuvSensors(world.scene, np.random.default_rng([seed, 11]))
-        self.navigator: Navigation = navigator or DeadReckoning(0.0, 0.0)
+        self.navigator: Navigation = navigation or navigator()
         self.sighted_at = -math.inf
         self.fix_at = -math.inf
         self.fixes = 0
         self.mine_depth: float | None = None
-        self.heard_fixes: list[tuple[float, SonarFix]] = []
+        self.heard_fixes: list[tuple[float, SonarFix, bool]] = []  # heard at, fix, fused?
         self.estimates: list[tuple[float, float, float]] = []  # t, x, y in {T}
 
     # -- the modem ------------------------------------------------------------------------------
@@ -72,21 +85,21 @@ class UuvStack(McmStack):
             fix = SonarFix.from_payload(data)
         except (KeyError, TypeError, ValueError):
             return
-        self.navigator.sonar(t, fix)
+        fused = self.navigator.fix(fix.ping, fix.range, fix.bearing, (fix.x, fix.y), self.t,
+                                   asv_heading=fix.heading)
         self.fix_at, self.fixes = t, self.fixes + 1
-        self.heard_fixes.append((t, fix))
+        self.heard_fixes.append((t, fix, fused))
 
     # -- sensing ---------------------------------------------------------------------------------
     def sense(self) -> None:
         s = self.body.state
-        self.navigator.predict(self.t, self.tau)
-        self.navigator.heading(self.t, self.sensors.heading(s))
-        self.navigator.depth(self.t, self.sensors.depth(s))
+        self.navigator.predict(self.t, self.tau, self.sensors.heading(s),
+                               self.sensors.depth(s))
         if self.world.carried():
             return
         sighting = self.sensors.camera(self.t, s)
         if sighting is not None:
-            self.navigator.camera(sighting)
+            self.navigator.visual(self.t, (sighting.x, sighting.y), sighting.sigma)
             self.sighted_at = self.t
 
     def move(self, tau: tuple[float, float, float]) -> None:
@@ -95,8 +108,10 @@ class UuvStack(McmStack):
         super().move(tau)
 
     def perception(self) -> Perception:
-        x, y, z, psi, u, w, r = self.navigator.estimate()
-        self.estimates.append((self.t, x, y))
-        return McmPerception(self.t, x, y, z, psi, u, 0.0, w, r, sighted_at=self.sighted_at,
+        x, _ = self.navigator.estimate()
+        self.estimates.append((self.t, float(x[X]), float(x[Y])))
+        return McmPerception(self.t, float(x[X]), float(x[Y]), float(x[Z]),
+                             math.remainder(float(x[PSI]), 2 * math.pi), float(x[U]), 0.0,
+                             float(x[W]), float(x[R]), sighted_at=self.sighted_at,
                              fix_at=self.fix_at, fixes=self.fixes,
                              mine_depth=self.mine_depth)

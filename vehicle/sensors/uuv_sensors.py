@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vehicle.world.mcm_bodies import BodyState
-from vehicle.world.mine_field import MineField
+from vehicle.world.mine_field import MINE_HEIGHT, MineField
 
 CAMERA_TILT = math.radians(15.0)  # below the bow
 CAMERA_CONE = math.radians(40.0)  # half-angle
@@ -34,9 +34,10 @@ class TargetSighting:
 
 
 def sees(scene: MineField, uuv: BodyState) -> bool:
-    """Whether the mine is in the camera's cone and within the visibility."""
+    """Whether the mine (its middle, half its height below its top) is in the camera's cone
+    and within the visibility."""
     tx, ty, tz = scene.target
-    dx, dy, dz = tx - uuv.x, ty - uuv.y, tz - uuv.z
+    dx, dy, dz = tx - uuv.x, ty - uuv.y, tz + MINE_HEIGHT / 2 - uuv.z
     distance = math.sqrt(dx * dx + dy * dy + dz * dz)
     if distance > scene.visibility:
         return False

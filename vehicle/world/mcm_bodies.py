@@ -5,8 +5,9 @@ Each controlled degree of freedom v (surge u, heave w, yaw rate r) obeys
 heave's external force is the buoyancy bias b (weight minus buoyancy, N, + down), and the
 current (m/s, {E}) carries the vehicle over ground (eq. 3's kinematics: ``x' = u cos psi +
 x_c``, ``y' = u sin psi + y_c``). Sway is not controlled (the UUV is "uncontrollable in sway");
-roll and pitch are passively stable. The parameters are chosen here for a small expendable
-vehicle and a small catamaran (the paper identifies them by self-oscillation and gives none).
+roll and pitch are passively stable. The UUV's parameters are those of the navigator's model
+(vehicle/perception/uuv_model.py), the ASV's are chosen here for a small catamaran (the paper
+identifies them by self-oscillation and gives none).
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+
+from vehicle.perception.uuv_model import UuvModel
 
 
 @dataclass(frozen=True)
@@ -43,8 +46,17 @@ class Model:
     bias: float = 0.0
 
 
-UUV_MODEL = Model(surge=Dof(40.0, 6.0, 40.0, 30.0), heave=Dof(45.0, 12.0, 60.0, 25.0),
-                  yaw=Dof(2.5, 2.0, 4.0, 4.0), bias=-1.5)  # 1.5 N light: it rises when idle
+def uuv_model(model: UuvModel | None = None, bias: float = -1.5) -> Model:
+    """The simulated UUV: the parameters the navigator's model has (one source, W6's
+    :class:`UuvModel`), 30 N, 25 N and 4 N m of thrust at most, ``bias`` N of weight minus
+    buoyancy (-1.5: 1.5 N light, it rises when idle)."""
+    m = model or UuvModel()
+    return Model(surge=Dof(m.alpha_u, m.beta_u, m.beta_uu, 30.0),
+                 heave=Dof(m.alpha_w, m.beta_w, m.beta_ww, 25.0),
+                 yaw=Dof(m.alpha_r, m.beta_r, m.beta_rr, 4.0), bias=bias)
+
+
+UUV_MODEL = uuv_model()
 ASV_MODEL = Model(surge=Dof(150.0, 30.0, 80.0, 120.0), heave=Dof(1.0, 1.0, 0.0, 0.0),
                   yaw=Dof(40.0, 30.0, 40.0, 40.0))
 
