@@ -28,17 +28,24 @@ from diagnostics import file_error
 from mcl.fleet import CompiledFleet, compile_fleet_file
 from mission.exits import Exit
 from mission.fleet import FleetResult, run_fleet
+from mission.mcm_vehicles import mcm_vehicles
 from mission.run import NotVerified
 from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
 
 from app.safe_exit import Output, Stops
+from app.vehicles.kind import Invalid
 
 SEEDS = 2**64  # vehicle i's seed is (N + i) mod 2**64
 # a task library's file stem -> the simulated vehicle that has its behaviours (seed -> vehicle);
 # a vehicle whose library is not here runs on the simulated Ictineu
 SIMULATORS: dict[str, Callable[[int], Vehicle]] = {}
+# task libraries whose vehicles share one simulated world, built together: (seed, the
+# --inject faults) -> a vehicle per library stem (paper 003's ASV and UUV: docs/MCM.md)
+WORLDS: dict[tuple[str, ...], Callable[[int, list[str]], dict[str, Vehicle]]] = {
+    ("asv", "uuv"): mcm_vehicles,
+}
 
 
 def loss_option(text: str) -> tuple[str | None, float]:
@@ -84,14 +91,31 @@ def losses(fleet: CompiledFleet, given: list[tuple[str | None, float]]
     return every[-1] if every else named
 
 
-def vehicles_for(fleet: CompiledFleet, seed: int) -> dict[str, Vehicle]:
-    """A simulated vehicle for each of the fleet's vehicles (this module's doc)."""
+def vehicles_for(fleet: CompiledFleet, seed: int, inject: list[str] | None = None
+                 ) -> dict[str, Vehicle]:
+    """A simulated vehicle for each of the fleet's vehicles (this module's doc): those whose
+    libraries make one of :data:`WORLDS` are built together, in one world, with the
+    ``--inject`` faults (a bad one, or faults with no such world: exit 2)."""
     from mission.simulated import simulated_vehicle  # here for start-up speed
 
+    stems = {name: [Path(u.library).stem for u in compiled.mission.uses]
+             for name, compiled in fleet.vehicles.items()}
     chosen: dict[str, Vehicle] = {}
-    for i, (name, compiled) in enumerate(fleet.vehicles.items()):
-        stems = [Path(u.library).stem for u in compiled.mission.uses]
-        make = next((SIMULATORS[s] for s in stems if s in SIMULATORS), None)
+    for together, build in WORLDS.items():
+        owner = {stem: name for name, own in stems.items() for stem in own if stem in together}
+        if set(owner) == set(together):
+            try:
+                built = build(seed, list(inject or []))
+            except ValueError as exc:  # as for one vehicle: --inject FAULT: error: ...
+                raise Invalid(f"--inject {exc} (docs/MCM.md)") from None
+            chosen.update({owner[stem]: v for stem, v in built.items()})
+    if inject and not chosen:
+        raise Invalid("--inject: not for this fleet: its vehicles share no simulated world "
+                      "that takes faults (docs/MCM.md); leave it out")
+    for i, (name, own_stems) in enumerate(stems.items()):
+        if name in chosen:
+            continue
+        make = next((SIMULATORS[s] for s in own_stems if s in SIMULATORS), None)
         own = (seed + i) % SEEDS
         chosen[name] = make(own) if make is not None else simulated_vehicle(seed=own)
     return chosen
@@ -106,7 +130,7 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
     if args.log is not None:
         raise file_error("--log", "--log: a fleet writes one run log per vehicle and a "
                          "channel record", "give a folder with --log-dir DIR", "fleet-log")
-    for option in ("param", "params", "tasks", "inject"):
+    for option in ("param", "params", "tasks"):
         if getattr(args, option):
             raise file_error(f"--{option}", f"--{option}: not for a fleet (each VEHICLE says "
                              "its own USES and PARAM)", "leave it out", "fleet-option")
@@ -122,10 +146,11 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
     if not args.quiet:
         timelines = {name: [timeline(compiled, MissionClock(), Named(out, name, width))]
                      for name, compiled in fleet.vehicles.items()}
-    header = {"file": args.mission, "vehicle": "sim", "seed": args.seed}
+    header = {"file": args.mission, "vehicle": "sim", "seed": args.seed, "inject": args.inject}
     stops = Stops(("SIGINT", "SIGTERM", "SIGHUP"))
     try:
-        result = run_fleet(fleet, vehicles_for(fleet, args.seed), loss=loss, seed=args.seed,
+        result = run_fleet(fleet, vehicles_for(fleet, args.seed, args.inject), loss=loss,
+                           seed=args.seed,
                            log_dir=folder, header=header, max_time=args.max_time,
                            stop=stops.request, verify=not args.no_verify,
                            observers=timelines, signer=signer, during=stops)

@@ -116,8 +116,8 @@ class Reacquire(Behaviour):
 
 class TrackUUV(Behaviour):
     """Watches the sonar's detections of the UUV: ``acquired`` at the first one, ``landed``
-    when they have stayed within 0.5 m for ``still`` s once it has gone 5 m (it rests on the
-    bottom, not waiting at 2 m under the ASV), ``lost``
+    when they have stayed within 0.5 m for ``still`` s (eight or more, over most of it) once it
+    has gone 5 m (it rests on the bottom, not waiting at 2 m under the ASV), ``lost``
     after ``patience`` s without one (once acquired)."""
 
     name = "TrackUUV"
@@ -135,7 +135,8 @@ class TrackUUV(Behaviour):
             self.raise_event("lost")
         recent = [d for d in track if d[0] >= q.t - still]
         travelled = math.hypot(track[-1][1] - track[0][1], track[-1][2] - track[0][2])
-        if track[0][0] <= q.t - still and len(recent) >= 3 and travelled > 5.0:
+        spans = bool(recent) and recent[-1][0] - recent[0][0] >= 0.8 * still
+        if spans and len(recent) >= 8 and travelled > 5.0:  # seen all along, not in glimpses
             xs, ys = sorted(d[1] for d in recent), sorted(d[2] for d in recent)
             mid = (xs[len(xs) // 2], ys[len(ys) // 2])  # the median: clutter does not move it
             if sum(math.hypot(d[1] - mid[0], d[2] - mid[1]) < 0.5 for d in recent) \

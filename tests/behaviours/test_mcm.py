@@ -75,10 +75,13 @@ def test_the_snapshot_needs_the_mine_in_view() -> None:
 def test_track_uuv_tells_acquired_then_landed_when_the_echo_stays_still() -> None:
     b = TrackUUV()
     b.initialise({"still": 8.0, "patience": 20.0}, 0.0)
-    moving = tuple((float(t), -15.0 + 0.5 * t, 0.0) for t in range(0, 30, 2))
+    moving = tuple((k / 2, -15.0 + 0.25 * k, 0.0) for k in range(0, 60))  # a ping every 0.5 s
     b.update(see(30.0, 0.0, 0.0, uuv_track=moving))
     assert [n for n, _ in b.take_events()] == ["acquired"]
-    still = moving + tuple((float(t), -1.0, 0.0) for t in range(30, 42, 2))
+    glimpses = moving + ((34.0, -1.0, 0.0), (35.0, -1.0, 0.0), (36.0, -1.0, 0.0))
+    b.update(see(36.0, 0.0, 0.0, uuv_track=glimpses))
+    assert b.take_events() == []  # seen still only over 2 s of the last 8: not yet
+    still = moving + tuple((k / 2, -1.0, 0.0) for k in range(60, 84))
     b.update(see(42.0, 0.0, 0.0, uuv_track=still))
     assert [n for n, _ in b.take_events()] == ["landed"]
     b.update(see(70.0, 0.0, 0.0, uuv_track=still))

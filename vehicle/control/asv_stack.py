@@ -45,12 +45,14 @@ class AsvStack(McmStack):
         self.origin: tuple[float, float] | None = None  # {T}'s origin in {E}, once reacquired
         self.mine_echoes: list[tuple[float, float]] = []
         self.detections: list[SonarFix] = []
+        self.sent_fixes: list[tuple[float, SonarFix]] = []  # (sent at, the fix) for figures
 
     # -- the modem ------------------------------------------------------------------------------
     def payload(self, channel: str, message: str, t: float) -> dict[str, Any]:
         """What a message says: a ``fix`` carries the last detection of the UUV (§4.1), a
         ``release`` the mine's depth (its echo sounder's, 0.1 m), every other nothing."""
         if message == "fix" and self.detections:
+            self.sent_fixes.append((t, self.detections[-1]))
             return self.detections[-1].payload()
         if message == "release":
             return {"depth": round(self.world.scene.target[2]

@@ -121,6 +121,7 @@ class McmStack:
         self._events: list[EventMessage] = []
         self._seq = 0
         self.track: list[tuple[float, float, float, float, float]] = []  # t, x, y, z, psi
+        self.raised: list[tuple[float, str, str]] = []  # every event: t, behaviour, event
 
     # -- the adapter's side ---------------------------------------------------------------------
     def on_action(self, action: ActionMessage, now: float) -> None:
@@ -159,6 +160,7 @@ class McmStack:
                 responses[b.name] = b.update(p)
                 for name, data in b.take_events():
                     self._events.append(EventMessage(self._seq, self.t, b.name, name, data))
+                    self.raised.append((round(self.t, 3), b.name, name))
                     self._seq += 1
         demands = self.coordinator.merge(responses)
         self.tau = self.velocity_loop(demands)
@@ -192,6 +194,13 @@ class McmStack:
     def perception(self) -> Perception:
         s = self.body.state
         return Perception(self.t, s.x, s.y, s.z, s.psi, s.u, 0.0, s.w, s.r)
+
+    def payload(self, channel: str, message: str, t: float) -> dict[str, Any]:
+        """What a message it sends says (its modem; nothing unless the vehicle says)."""
+        return {}
+
+    def heard(self, channel: str, message: str, data: dict[str, Any], t: float) -> None:
+        """A message it heard at time t (its modem; ignored unless the vehicle says)."""
 
     def position(self) -> tuple[float, float, float] | None:
         """Where the vehicle is ({E}, m): for the channel's travel time."""
