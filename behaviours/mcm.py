@@ -242,8 +242,9 @@ class Home(Behaviour):
 
 
 class Land(Behaviour):
-    """Descend at 0.2 m/s, no surge, heading held, until the depth stops growing for 2 s
-    (the UUV rests on the bottom): ``landed``."""
+    """Descend at 0.2 m/s onto the bottom, holding the point where it was enabled and facing
+    the mine (a current would carry it off), until the depth stops growing for 2 s (it rests
+    on the bottom): ``landed``."""
 
     name = "Land"
     drives = ("x", "z", "yaw")
@@ -251,14 +252,20 @@ class Land(Behaviour):
 
     def on_initialise(self, t: float) -> None:
         self.depths: list[tuple[float, float]] = []
+        self.point: tuple[float, float] | None = None
 
     def on_update(self, p: Perception) -> Response:
+        if self.point is None:
+            self.point = (p.x, p.y)
         self.depths.append((p.t, p.z))
         self.depths = [d for d in self.depths if d[0] >= p.t - 2.0]
         if len(self.depths) > 15 and p.t - self.depths[0][0] >= 1.9 \
                 and p.z - self.depths[0][1] < 0.05:
             self.raise_event("landed")
-        return Response({"x": 0.0, "z": 0.2, "yaw": 0.0})
+        gx, gy = self.point
+        ahead = (gx - p.x) * math.cos(p.psi) + (gy - p.y) * math.sin(p.psi)
+        return Response({"x": clamp(0.6 * ahead, 0.3), "z": 0.2,
+                         "yaw": steer(math.atan2(-p.y, -p.x) - p.psi)})
 
 
 class Snapshot(Behaviour):

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from mcl.analysis.fleet_verification import verify_fleet
 from mcl.analysis.verification import verify_mission
 from mcl.fleet import CompiledFleet, compile_fleet_file
 from mission.fleet import FleetResult, run_fleet
@@ -48,6 +49,15 @@ def test_each_vehicle_of_the_mission_is_proved() -> None:
         assert verdict.ok, (name, [r.name for r in verdict.results if not r.holds])
 
 
+@pytest.mark.slow
+def test_the_fleet_is_proved_under_loss() -> None:
+    verdict = verify_fleet(fleet())
+    assert verdict.ok, [r.name for r in verdict.results if not r.holds]
+    names = {r.name for r in verdict.results}
+    assert {"fleet-no-deadlock", "fleet-silence", "fleet-nothing-on-at-end",
+            "fleet-terminates"} <= names
+
+
 def test_the_asv_guides_the_uuv_to_the_mine_and_it_lands(tmp_path: Path) -> None:
     result, asv, uuv = run(tmp_path, seed=1, loss=0.0)
     assert {n: r.status for n, r in result.runs.items()} == {"asv": "ok", "uuv": "ok"}
@@ -72,6 +82,18 @@ def test_when_the_guide_goes_silent_the_uuv_ascends(tmp_path: Path) -> None:
         assert uuv.world.uuv.state.z < 0.3
         assert all(r.status == "ok" and not r.switched_off for r in result.runs.values())
         assert result.runs["asv"].time <= 360.0  # the ASV ends on its own timers
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fault", ["clutter@0", "falsetarget@0", "current=0,0.2"])
+def test_each_fault_ends_as_the_mission_provides(tmp_path: Path, fault: str) -> None:
+    for seed in (1, 4):
+        result, _, uuv = run(tmp_path / fault, seed=seed, loss=0.0, faults=(fault,))
+        assert all(r.status == "ok" and not r.switched_off for r in result.runs.values())
+        assert raised(uuv)[-1] in ("Snapshot.taken", "Snapshot.missed", "Ascend.surfaced")
+        if raised(uuv)[-1] == "Snapshot.taken":  # landed only where the camera saw the mine
+            s, (tx, ty, _) = uuv.world.uuv.state, uuv.world.scene.target
+            assert ((s.x - tx) ** 2 + (s.y - ty) ** 2) ** 0.5 < 2.0
 
 
 def test_the_top_view_shows_both_tracks_the_fixes_and_the_mine(tmp_path: Path) -> None:
