@@ -149,8 +149,8 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
     header = {"file": args.mission, "vehicle": "sim", "seed": args.seed, "inject": args.inject}
     stops = Stops(("SIGINT", "SIGTERM", "SIGHUP"))
     try:
-        result = run_fleet(fleet, vehicles_for(fleet, args.seed, args.inject), loss=loss,
-                           seed=args.seed,
+        vehicles = vehicles_for(fleet, args.seed, args.inject)
+        result = run_fleet(fleet, vehicles, loss=loss, seed=args.seed,
                            log_dir=folder, header=header, max_time=args.max_time,
                            stop=stops.request, verify=not args.no_verify,
                            observers=timelines, signer=signer, during=stops)
@@ -160,7 +160,7 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
         return Exit.FAILED
     finally:
         stops.restore()
-    summary(args.mission, fleet, result, out)
+    summary(args.mission, fleet, result, out, vehicles)
     return result.exit
 
 
@@ -178,8 +178,10 @@ class Named:
         self.out.say(f"{self.name:<{self.width}} {text}")
 
 
-def summary(mission: str, fleet: CompiledFleet, result: FleetResult, out: Output) -> None:
-    """Each vehicle's end and run log, then each channel's figures."""
+def summary(mission: str, fleet: CompiledFleet, result: FleetResult, out: Output,
+            vehicles: dict[str, Vehicle] | None = None) -> None:
+    """Each vehicle's end, its figures (a vehicle that sums itself up: paper 003's against
+    ground truth, docs/MCM.md) and run log, then each channel's figures."""
     out.say(f"{mission}: fleet {fleet.name}, {len(result.runs)} vehicles, ended after "
             f"{result.time:.1f} s of mission time")
     for name, r in result.runs.items():
@@ -188,6 +190,9 @@ def summary(mission: str, fleet: CompiledFleet, result: FleetResult, out: Output
         if r.status not in ("ok", "fail") or r.switched_off:
             out.say(f"    switched off: {', '.join(r.switched_off) or 'nothing was on'}; "
                     f"{r.confirmed}")
+        sums = (vehicles or {}).get(name)
+        for key, value in (sums.summary.summary() if sums and sums.summary else {}).items():
+            out.say(f"    {key}: {value}")
         out.say(f"    run log: {r.log}")
     for name, c in result.channels.items():
         spec = fleet.channels[name]

@@ -12,7 +12,7 @@ t)`` with its last sonar fix (R, epsilon, its heading and position in {T}, the p
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from mission.vehicle import Vehicle
@@ -44,5 +44,17 @@ def mcm_vehicles(seed: int = 1, faults: Sequence[str | tuple[str, Any]] = (),
         said = Declaration(f"sim {name} (paper 003)", "behaviours/mcm.py",
                            declaration_text(stack.classes))
         adapter = InProcess(stack, speed=1.0 if realtime else None, declaration=said)
-        chosen[name] = Vehicle(adapter, declares=adapter, modem=stack)
+        chosen[name] = Vehicle(adapter, declares=adapter, modem=stack,
+                               summary=Figures(stack.figures))
     return chosen
+
+
+class Figures:
+    """A vehicle's figures against the simulated ground truth, as its run's summary
+    (:class:`mission.vehicle.Summary`): what ``mcl run`` prints under the vehicle."""
+
+    def __init__(self, figures: Callable[[], dict[str, Any]]) -> None:
+        self.figures = figures
+
+    def summary(self) -> dict[str, Any]:
+        return self.figures()

@@ -67,6 +67,15 @@ def test_the_asv_guides_the_uuv_to_the_mine_and_it_lands(tmp_path: Path) -> None
     assert uuv.world.uuv.on_bottom and ((s.x - tx) ** 2 + (s.y - ty) ** 2) ** 0.5 < 2.0
     channel = result.channels["guide"]
     assert channel["lost"] == 0 and channel["delivered"] >= 8
+    figures = uuv.figures()  # what mcl run prints under the uuv, against ground truth
+    assert figures["ended"] == "landed, the mine in the snapshot"
+    errors = uuv.navigation_errors()
+    assert len(errors) > 300 and max(errors) < 1.5  # from the first fix to the landing
+    assert figures["navigator error"].startswith(
+        f"{(sum(e * e for e in errors) / len(errors)) ** 0.5:.2f} m RMS")
+    took = re.fullmatch(r"the UUV (\d+) times, clutter (\d+), the mine 0",
+                        asv.figures()["sonar took for the UUV"])
+    assert took is not None and int(took[2]) < 0.2 * int(took[1])  # clutter: now and then
     heard = {round(h.ping, 3) for _, h, _ in uuv.heard_fixes}  # the payload's 1 ms
     assert heard <= {round(f.ping, 3) for _, f in asv.sent_fixes}  # each heard was sent
 
@@ -128,4 +137,7 @@ def test_mcl_run_runs_the_mission_to_its_end_with_a_fault(tmp_path: Path) -> Non
     assert done.returncode == 0, done.stderr
     assert "uuv: mission go_to_mine ended OK" in done.stdout
     assert "Snapshot.taken" in done.stdout
+    assert "    ended: landed, the mine in the snapshot\n" in done.stdout
+    assert re.search(r"\n    navigator error: \d+\.\d\d m RMS, \d+\.\d\d m at most\n",
+                     done.stdout)
     assert (tmp_path / "asv.jsonl").exists() and (tmp_path / "channels.jsonl").exists()

@@ -92,7 +92,7 @@ class AsvStack(McmStack):
         if len(self.mine_echoes) >= 3:
             xs, ys = zip(*self.mine_echoes)
             self.origin = (sum(xs) / len(xs), sum(ys) / len(ys))
-            self.mine = self.origin
+            self.mine = self.world.origin = self.origin
 
     def perception(self) -> Perception:
         s = self.body.state
@@ -104,3 +104,16 @@ class AsvStack(McmStack):
         track = tuple((f.ping, *fix_position(f, 0.0)) for f in self.detections[-40:])
         return McmPerception(self.t, x, y, 0.0, psi, s.u, 0.0, 0.0, s.r, mine=self.mine,
                              reacquired=self.origin is not None, uuv_track=track)
+
+    def figures(self) -> dict[str, Any]:
+        """What its sonar did, against ground truth: where it set {T}, what it took for the
+        UUV."""
+        tx, ty, _ = self.world.scene.target
+        picked = {k: sum(1 for f in self.detections if f.echo == k)
+                  for k in ("uuv", "clutter", "target")}
+        frame = (f"{math.hypot(self.origin[0] - tx, self.origin[1] - ty):.2f} m off the mine"
+                 if self.origin is not None else "never set")
+        return {"target frame": frame,
+                "sonar took for the UUV": f"the UUV {picked['uuv']} times, clutter "
+                                          f"{picked['clutter']}, the mine {picked['target']}",
+                "fixes sent": len(self.sent_fixes)}

@@ -71,6 +71,7 @@ class McmWorld:
     uuv: Body
     released_at: float | None = None
     faults: dict[str, Any] = field(default_factory=dict)
+    origin: tuple[float, float] | None = None  # {T}'s origin in {E}, once the ASV set it
 
     def carried(self) -> bool:
         """Whether the UUV still rides under the ASV."""
@@ -201,6 +202,10 @@ class McmStack:
 
     def heard(self, channel: str, message: str, data: dict[str, Any], t: float) -> None:
         """A message it heard at time t (its modem; ignored unless the vehicle says)."""
+
+    def figures(self) -> dict[str, Any]:
+        """The run's figures against ground truth (each vehicle says its own)."""
+        return {}
 
     def position(self) -> tuple[float, float, float] | None:
         """Where the vehicle is ({E}, m): for the channel's travel time."""

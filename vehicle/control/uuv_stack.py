@@ -115,3 +115,37 @@ class UuvStack(McmStack):
                              float(x[W]), float(x[R]), sighted_at=self.sighted_at,
                              fix_at=self.fix_at, fixes=self.fixes,
                              mine_depth=self.mine_depth)
+
+    def figures(self) -> dict[str, Any]:
+        """The run against ground truth: how it ended, how far from the mine, the
+        navigator's error in {T} from the first fix on (against the truth in the frame the ASV
+        set), and what became of the fixes."""
+        tx, ty, _ = self.world.scene.target
+        s = self.body.state
+        ended = {"Snapshot.taken": "landed, the mine in the snapshot",
+                 "Snapshot.missed": "landed, the mine NOT in the snapshot",
+                 "Ascend.surfaced": "ascended"}.get(
+            next((f"{b}.{e}" for _, b, e in reversed(self.raised)), ""),
+            "in the water" if self.world.released_at is not None else "not released")
+        errors = self.navigation_errors()
+        fused = sum(1 for _, _, ok in self.heard_fixes if ok)
+        return {"ended": ended, "from the mine": f"{math.hypot(s.x - tx, s.y - ty):.2f} m",
+                "navigator error": (f"{math.sqrt(sum(e * e for e in errors) / len(errors)):.2f}"
+                                    f" m RMS, {max(errors):.2f} m at most") if errors else "-",
+                "fixes heard": f"{len(self.heard_fixes)} ({fused} fused, "
+                               f"{len(self.heard_fixes) - fused} refused by the gate)"}
+
+    def navigation_errors(self) -> list[float]:
+        """|estimate - truth| (m, horizontal, in {T}) at each tick from the first fix heard
+        on (before it, the UUV does not know where it is, and knows it)."""
+        origin = self.world.origin
+        if not self.heard_fixes or origin is None:
+            return []
+        released = self.heard_fixes[0][0]
+        truth = {round(t, 3): (x - origin[0], y - origin[1]) for t, x, y, _, _ in self.track}
+        out = []
+        for t, x, y in self.estimates:
+            seen = truth.get(round(t, 3))
+            if t >= released and seen is not None:
+                out.append(math.hypot(x - seen[0], y - seen[1]))
+        return out
