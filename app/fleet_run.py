@@ -33,7 +33,7 @@ from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
 
-from app.safe_exit import Output, Stops
+from app.safe_exit import Output, ReportCut, Stops
 
 SEEDS = 2**64  # vehicle i's seed is (N + i) mod 2**64
 # a task library's file stem -> the simulated vehicle that has its behaviours (seed -> vehicle);
@@ -130,12 +130,19 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
                            stop=stops.request, verify=not args.no_verify,
                            observers=timelines, signer=signer, during=stops)
     except NotVerified as exc:
+        stops.restore()
         print(f"{args.mission}: not verified ({', '.join(exc.failed)}): refusing to run it\n"
               f"  hint: see 'mclc {args.mission}'; --no-verify runs it anyway", file=sys.stderr)
         return Exit.FAILED
+    except BaseException:
+        stops.restore()
+        raise
+    try:  # a signal now only cuts the report short: the end records stand
+        summary(args.mission, fleet, result, out)
+    except ReportCut as cut:
+        print(cut.line(), file=sys.stderr)
     finally:
         stops.restore()
-    summary(args.mission, fleet, result, out)
     return result.exit
 
 

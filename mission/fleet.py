@@ -150,7 +150,10 @@ class FleetAdapter:
         self.senders = senders  # the vehicles that send on a channel to this one
         self.modem = modem
         self.seq = 0  # the events given to the runner, renumbered in order
-        self.stack = getattr(inner, "stack", None)
+        # when its simulated vehicle next raises an event (None: it cannot say; its runner's
+        # wait is then its next happening)
+        self.peek: Callable[[], float | None] | None = getattr(
+            getattr(inner, "stack", None), "next_time", None)
 
     def __enter__(self) -> FleetAdapter:
         self.inner.__enter__()
@@ -173,7 +176,7 @@ class FleetAdapter:
     def next_time(self, until: float) -> float:
         """This vehicle's next happening: ``until``, its vehicle's next event, a message."""
         times = [until]
-        nxt = self.stack.next_time() if self.stack is not None else None
+        nxt = self.peek() if self.peek is not None else None
         if nxt is not None:
             times.append(nxt)
         due = self.carrier.next_due(self.name)
@@ -269,6 +272,11 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
     missing = [n for n in names if n not in vehicles]
     if missing:
         raise MclError(f"no vehicle given for {missing[0]} of fleet {fleet.name}",
+                       code="fleet-vehicle")
+    wall = [n for n in names if not getattr(vehicles[n].adapter, "simulated", False)]
+    if wall:
+        raise MclError(f"vehicle {wall[0]} of fleet {fleet.name} is not simulated: a fleet "
+                       "in one process runs on simulated vehicles, on one simulated clock",
                        code="fleet-vehicle")
     by_channel = losses(fleet, loss)
     for name in names:  # refuse before anything is written or sent

@@ -12,6 +12,7 @@ from typing import Any
 
 import pytest
 
+from diagnostics import MclError
 from mcl.fleet import CompiledFleet, compile_fleet_file
 from mission.fleet import run_fleet
 from mission.fleet_evidence import problem, read_record
@@ -225,3 +226,14 @@ def test_the_payload_travels_the_delay_grows_with_distance_and_the_modem_hears_i
                                                                          0.0, 0.0)
     assert t == pytest.approx(0.5 + 3000.0 / 1500.0)  # latency + travel: 2.5 s, in 1 .. 3
     assert leader.got == []  # one way
+
+
+def test_a_vehicle_that_is_not_simulated_is_refused_before_anything_runs(
+        tmp_path: Path) -> None:
+    fleet = pair()
+    vehicles = fleet_vehicles(fleet)
+    vehicles["follower"] = Vehicle(Failing(vehicles["follower"].adapter))
+    vehicles["follower"].adapter.simulated = False  # type: ignore[attr-defined]
+    with pytest.raises(MclError, match="follower of fleet pair is not simulated"):
+        run_fleet(fleet, vehicles, log_dir=tmp_path)
+    assert list(tmp_path.iterdir()) == []  # nothing written
