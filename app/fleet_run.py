@@ -41,6 +41,18 @@ SEEDS = 2**64  # vehicle i's seed is (N + i) mod 2**64
 SIMULATORS: dict[str, Callable[[int], Vehicle]] = {}
 
 
+def add_options(parser: argparse.ArgumentParser) -> None:
+    """The options of ``mcl run`` that only a fleet takes."""
+    parser.add_argument("--log-dir", metavar="DIR", default=None,
+                        help="a fleet: the folder of its run logs (one per vehicle) and its "
+                             "channel record; default out/runs/FLEET-TIME "
+                             "(docs/FLEET_RUN.md)")
+    parser.add_argument("--loss", action="append", default=[], type=loss_option,
+                        metavar="P|CHANNEL=P",
+                        help="a fleet: the probability that a message on a LOSSY channel is "
+                             "lost, for every channel or for one (repeat it); default 0")
+
+
 def loss_option(text: str) -> tuple[str | None, float]:
     """``--loss P`` or ``--loss CHANNEL=P``: a probability from 0 to 1, for every LOSSY
     channel or for the one named."""
@@ -110,6 +122,10 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
         if getattr(args, option):
             raise file_error(f"--{option}", f"--{option}: not for a fleet (each VEHICLE says "
                              "its own USES and PARAM)", "leave it out", "fleet-option")
+    for option in ("mcap", "foxglove", "realtime"):
+        if getattr(args, option):
+            raise file_error(f"--{option}", f"--{option}: not for a fleet yet (one mission's "
+                             "run only)", "leave it out", "fleet-option")
     fleet = compile_fleet_file(args.mission, require_values=True)
     for d in fleet.warnings:
         print(d.format(), file=sys.stderr)

@@ -76,13 +76,7 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
                    help="run the simulated vehicle at wall-clock speed")
     r.add_argument("--log", metavar="FILE", help="run log (JSON Lines); default "
                    "out/runs/MISSION-TIME.jsonl")
-    r.add_argument("--log-dir", metavar="DIR", default=None,
-                   help="a fleet: the folder of its run logs (one per vehicle) and its "
-                        "channel record; default out/runs/FLEET-TIME (docs/FLEET_RUN.md)")
-    r.add_argument("--loss", action="append", default=[], type=fleet_run.loss_option,
-                   metavar="P|CHANNEL=P",
-                   help="a fleet: the probability that a message on a LOSSY channel is "
-                        "lost, for every channel or for one (repeat it); default 0")
+    fleet_run.add_options(r)  # --log-dir, --loss: a fleet's
     r.add_argument("--max-time", type=_seconds, default=None, metavar="SECONDS",
                    help="abort a mission that has not ended after this much mission time "
                         "(exit 4). Default: the longest the mission can last by its "
