@@ -57,6 +57,7 @@ from mission.channels import (
     Position,
 )
 from mission.exits import Exit
+from mission.logwriter import LogUnwritable
 from mission.run import NotVerified, RunResult, Stop, run_mission
 from mission.vehicle import Vehicle
 
@@ -282,12 +283,8 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
     for name in names:  # refuse before anything is written or sent
         check_before(fleet.vehicles[name], vehicles[name], verify, list(fleet.channels))
     folder = Path(log_dir) if log_dir is not None else None
-    record = (ChannelRecord(folder / "channels.jsonl", {
-        "fleet": fleet.name, "seed": seed, "loss": by_channel, "channels": {
-            c.name: {"sender": c.sender, "receivers": list(c.receivers),
-                     "delay": [c.delay_min, c.delay_max], "interval": c.interval,
-                     "lossy": c.lossy} for c in fleet.channels.values()}})
-              if folder is not None else None)
+    record = open_record(folder / "channels.jsonl", fleet, seed, by_channel) \
+        if folder is not None else None
     rng = random.Random(seed)
     models = {name: ChannelModel(c, by_channel[name], random.Random(rng.getrandbits(64)))
               for name, c in fleet.channels.items()}
@@ -318,16 +315,30 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
         for thread in threads:
             while thread.is_alive():
                 thread.join(0.2)  # the main thread stays free for signal handlers
-    end = max((r.time for r in runs.values()), default=0.0)
-    for name in names:
-        carrier.undelivered(name, end, "the fleet's run ended")
-    if record is not None:
-        record.close(end, "every vehicle's run ended")
+        end = max((r.time for r in runs.values()), default=0.0)  # (still ``during``: a
+        for name in names:  # signal now is a request nobody reads, not an interruption)
+            carrier.undelivered(name, end, "the fleet's run ended")
+        if record is not None:
+            record.close(end, "every vehicle's run ended")
     if errors:
         raise next(iter(errors.values()))
     return FleetResult(fleet.name, {n: runs[n] for n in names}, carrier.summary(),
                        record.path if record is not None else None,
                        record.failure if record is not None else "")
+
+
+def open_record(path: Path, fleet: FleetSpec, seed: int, loss: dict[str, float]
+                ) -> ChannelRecord:
+    """The channel record, its header written: the fleet, the seed, the losses and the
+    channels' declarations; one that cannot be written is :class:`LogUnwritable`."""
+    try:
+        return ChannelRecord(path, {
+            "fleet": fleet.name, "seed": seed, "loss": loss, "channels": {
+                c.name: {"sender": c.sender, "receivers": list(c.receivers),
+                         "delay": [c.delay_min, c.delay_max], "interval": c.interval,
+                         "lossy": c.lossy} for c in fleet.channels.values()}})
+    except OSError as exc:
+        raise LogUnwritable(path, exc) from None
 
 
 def check_before(compiled: Compiled, vehicle: Vehicle, verify: bool,
