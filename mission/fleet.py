@@ -42,6 +42,7 @@ from typing import Any, Protocol
 
 from aal.messages import ActionMessage, EventMessage
 from diagnostics import MclError
+from mcl.analysis.fleet_verification import verify_fleet
 from mcl.analysis.verification import verify_mission
 from mcl.api import Compiled
 from petri.execution.player import Order
@@ -267,7 +268,9 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
     or by channel name; ``seed``: the channels' random stream; ``log_dir``: a run log per
     vehicle (``NAME.jsonl``) and the channel record (``channels.jsonl``) go there;
     ``observers``: each vehicle's extra observers (a timeline); the rest as
-    :func:`mission.run_mission`. Raises :class:`NotVerified` or a capability refusal before
+    :func:`mission.run_mission`. Raises :class:`NotVerified` (a vehicle's mission not verified
+    alone with its receptions as environment events, or a fleet property proved false; one
+    the proof leaves undecided does not stop the run) or a capability refusal before
     anything runs."""
     names = list(fleet.vehicles)
     missing = [n for n in names if n not in vehicles]
@@ -282,6 +285,11 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
     by_channel = losses(fleet, loss)
     for name in names:  # refuse before anything is written or sent
         check_before(fleet.vehicles[name], vehicles[name], verify, list(fleet.channels))
+    if verify:  # the fleet as a whole: a property proved false is refused
+        fails = [r.name for r in verify_fleet(fleet).results
+                 if r.status == "fails" and r.severity == "error"]
+        if fails:
+            raise NotVerified([f"fleet {fleet.name}: {name}" for name in fails])
     folder = Path(log_dir) if log_dir is not None else None
     record = open_record(folder / "channels.jsonl", fleet, seed, by_channel) \
         if folder is not None else None
