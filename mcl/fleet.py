@@ -173,7 +173,49 @@ def check_fleet(fleet: ast.Fleet, source: Source, params: Params | None = None,
         errors.extend(unbounded_waits(checked[name], channels))
     if errors:
         raise MclError(sorted(errors, key=_order))
+    for name, diagnostics in unused_messages(checked, source).items():
+        checked[name].diagnostics = sorted(checked[name].diagnostics + diagnostics,
+                                           key=_order)
     return checked
+
+
+def unused_messages(checked: dict[str, checker.Checked],
+                    source: Source) -> dict[str, list[Diagnostic]]:
+    """Warnings, by vehicle: a Receive of a message its channel's sender never sends (it can
+    only end on its timeout or its race), and a message sent that no receiver waits for."""
+    sent: set[str] = set()
+    awaited: set[str] = set()
+    for c in checked.values():
+        for call in c.mission.calls():
+            form = c.calls[id(call)].form
+            if form.name == "Send" and call.name == "Send":
+                sent.add(f"{form.start[0].behaviour}.{_message(call)}")
+            elif form.name == "Receive" and call.name == "Receive":
+                awaited.add(form.ok[0])
+    out: dict[str, list[Diagnostic]] = {}
+    for name, c in checked.items():
+        for call in c.mission.calls():
+            form = c.calls[id(call)].form
+            if call.name == "Receive" and form.name == "Receive" and form.ok[0] not in sent:
+                out.setdefault(name, []).append(source.diagnostic(
+                    "warning", f"{printer.call(call)} waits for a message no vehicle sends",
+                    call.span, "send it with Send(...) in the channel's sender, or remove "
+                    "this wait (only its timeout or a race can end it)", "fleet-never-sent"))
+            if call.name == "Send" and form.name == "Send":
+                event = f"{form.start[0].behaviour}.{_message(call)}"
+                if event not in awaited:
+                    out.setdefault(name, []).append(source.diagnostic(
+                        "warning", f"{printer.call(call)} sends a message no vehicle waits "
+                        "for", call.span, "receive it with Receive(...) in a vehicle the "
+                        "channel goes to, or remove this send", "fleet-never-received"))
+    return out
+
+
+def _message(call: ast.Call) -> str:
+    """The message a checked Send names (its second argument)."""
+    value = call.args[1].value
+    assert isinstance(value, ast.Ref)
+    return value.name
 
 
 def _order(d: Diagnostic) -> tuple[int, int, int]:

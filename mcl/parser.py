@@ -30,6 +30,7 @@ KEYWORDS = ("MISSION", "PARAM", "USES", "TRY", "CATCH", "DO", "PARALLEL", "AND",
 # the words of a fleet (docs/LANGUAGE.md, "Fleets"): keywords only where a fleet is written
 FLEET_KEYWORDS = ("FLEET", "VEHICLE", "CHANNEL", "FROM", "TO", "ACOUSTIC", "RADIO", "TETHER",
                   "DELAY", "EVERY", "LOSSY", "MESSAGES")
+NAME_LIST_END = {"SEMICOLON", "COMMA", "ACOUSTIC", "RADIO", "TETHER"}  # after a CHANNEL's names
 MAX_DEPTH = 100  # blocks nested deeper than this are refused ("absurd nesting")
 
 # code -> (message, hint, examples that fail in the same parser state)
@@ -185,6 +186,18 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
         return error(source, f"keywords are upper case: write {token.upper()}, not {token}",
                      token_span(source, token), f"replace '{token}' with '{token.upper()}'",
                      code="lower-case-keyword")
+    expects = getattr(exc, "expected", None) or set()
+    if (isinstance(token, Token) and token.type == "NAME" and token.upper() in expects
+            and token.upper() in FLEET_KEYWORDS):  # a fleet's word where it is expected
+        return error(source, f"keywords are upper case: write {token.upper()}, not {token}",
+                     token_span(source, token), f"replace '{token}' with '{token.upper()}'",
+                     code="lower-case-keyword")
+    if (isinstance(token, Token) and token.type in ("CHANNEL", "VEHICLE", "RBRACE")
+            and {"SEMICOLON", "COMMA"} <= expects <= NAME_LIST_END and previous is not None):
+        # the end of a CHANNEL's MESSAGES list (the only place a list of names can end)
+        return error(source, "';' missing at the end of the CHANNEL declaration",
+                     source.span(previous.end_line or line, previous.end_column or col),
+                     "end each CHANNEL ... MESSAGES a, b with ';'", code="missing-semicolon")
     code = _after_item(exc, token, known_mistake(exc))
     if code is not None:
         message, hint, _ = KNOWN_MISTAKES[code]
@@ -276,7 +289,7 @@ def _end_span(source: Source) -> Span:
 
 _TERMINAL_NAMES = {"LBRACE": "'{'", "RBRACE": "'}'", "LPAR": "'('", "RPAR": "')'",
                    "LSQB": "'['", "RSQB": "']'", "SEMICOLON": "';'", "COMMA": "','",
-                   "EQUAL": "'='", "STRING": "a \"string\"", "NAME": "a name", "SIGNED_NUMBER": "a number",
+                   "EQUAL": "'='", "_DOTS": "'..'", "STRING": "a \"string\"", "NAME": "a name", "SIGNED_NUMBER": "a number",
                    "UNIT": "a unit", "$END": "the end of the file"}
 
 

@@ -7,12 +7,14 @@ from lsprotocol import types
 
 from diagnostics import Span
 from mcl import ast, printer
-from mcl.parser import KEYWORDS
+from mcl.parser import FLEET_KEYWORDS, KEYWORDS
 from mcl.values import UNITS, to_text
 
 from app.lsp.document import Document
 
 KIND = types.SymbolKind
+FLEET_TASKS = (("Send", "Send(CHANNEL, MESSAGE): put a message on a channel from this vehicle"),
+               ("Receive", "Receive(CHANNEL, MESSAGE[, timeout = DURATION]): wait for it"))
 CONSTRUCTS = {  # the construct tree's nodes: (name shown, symbol kind)
     ast.TryCatchDo: ("TRY … CATCH … DO", KIND.Namespace),
     ast.ParallelAnd: ("PARALLEL … AND", KIND.Struct),
@@ -40,18 +42,55 @@ def completion(doc: Document) -> list[types.CompletionItem]:
                 p.name, kind=types.CompletionItemKind.Variable,
                 detail=f"PARAM {p.name} = {to_text(p.value)}" if p.value is not None
                 else f"PARAM {p.name}"))
+    if doc.fleet is not None:
+        items += fleet_completion(doc.fleet)
     items += [types.CompletionItem(k, kind=types.CompletionItemKind.Keyword) for k in KEYWORDS]
     items += [types.CompletionItem(u, kind=types.CompletionItemKind.Unit, detail=what)
               for u, (what, _) in UNITS.items()]
     return items
 
 
+def fleet_completion(fleet: ast.Fleet) -> list[types.CompletionItem]:
+    """In a fleet: its words, Send and Receive, its channels and their messages."""
+    items = [types.CompletionItem(k, kind=types.CompletionItemKind.Keyword)
+             for k in FLEET_KEYWORDS]
+    items += [types.CompletionItem(name, kind=types.CompletionItemKind.Function,
+                                   detail=detail) for name, detail in FLEET_TASKS]
+    for c in fleet.channels:
+        items.append(types.CompletionItem(
+            c.name.name, kind=types.CompletionItemKind.Interface,
+            detail=f"CHANNEL {c.name.name} FROM {c.sender.name} TO "
+                   f"{', '.join(r.name for r in c.receivers)}"))
+        items += [types.CompletionItem(m.name, kind=types.CompletionItemKind.EnumMember,
+                                       detail=f"a message of {c.name.name}")
+                  for m in c.messages]
+    return items
+
+
 def symbols(doc: Document) -> list[types.DocumentSymbol]:
     """The mission's outline: its ``USES``, its ``PARAM``s, and ``MISSION`` (and ``ON STOP``)
-    with their constructs and task calls (sequences are not nodes of their own)."""
+    with their constructs and task calls (sequences are not nodes of their own); a fleet's:
+    ``FLEET`` with its channels and each vehicle's outline."""
+    if doc.fleet is not None:
+        return [fleet_symbol(doc.fleet)]
     m = doc.mission
     if m is None:
         return []
+    return mission_symbols(m)
+
+
+def fleet_symbol(fleet: ast.Fleet) -> types.DocumentSymbol:
+    """``FLEET name``: its channels, then its vehicles, each with its mission's outline."""
+    kids = [symbol(f"CHANNEL {c.name.name}", KIND.Interface, c.span,
+                   f"{c.sender.name} → {', '.join(r.name for r in c.receivers)}: "
+                   f"{', '.join(m.name for m in c.messages)}") for c in fleet.channels]
+    kids += [symbol(f"VEHICLE {v.name.name}", KIND.Class, v.span,
+                    children=mission_symbols(v.mission)) for v in fleet.vehicles]
+    return symbol(f"FLEET {fleet.name}", KIND.Module, fleet.span, children=kids)
+
+
+def mission_symbols(m: ast.Mission) -> list[types.DocumentSymbol]:
+    """A mission's USES, PARAMs, MISSION and ON STOP."""
     out = [symbol(f"USES {u.library}", KIND.Module, u.span) for u in m.uses]
     out += [symbol(p.name, KIND.Variable, p.span,
                    to_text(p.value) if p.value is not None else None) for p in m.params]

@@ -15,7 +15,9 @@ status      ``status``: running, ok or fail
 fire        ``transition``, ``index``, ``cause`` (immediate, timer, abort, replay, or the event),
             ``label``, ``construct``, ``line``
 action      ``action`` (enable, disable, configure), ``behaviour``, ``params``, ``task``: an
-            order the firing just before sent to the vehicle (``task`` MISSION: the cleanup's)
+            order the firing just before sent to the vehicle (``task`` MISSION: the cleanup's);
+            ``send`` (a fleet's vehicle): the message ``params.message`` the firing gave to
+            the channel ``behaviour``, never to the vehicle
 event       ``event``, ``data``: an event that fired transitions
 ignored     ``event``, ``reason``: an event that fired nothing
 note        ``note``: text for people (never read back by a program)

@@ -160,3 +160,13 @@ def test_send_and_receive_stay_unknown_outside_a_fleet() -> None:
     with pytest.raises(MclError) as err:
         compile_source(Source("m.mcl", "MISSION { Receive(orders, go, timeout = 1 s) }"))
     assert err.value.diagnostics[0].code == "unknown-task"
+
+
+def test_a_message_nobody_sends_or_nobody_waits_for_is_a_warning() -> None:
+    text = GOOD.replace("Send(orders, go)", "Send(orders, abort)")
+    fleet = compile_fleet_source(Source("pair.mcl", text))
+    found = [(d.severity, d.code, str(d.span)) for d in fleet.warnings]
+    assert found == [("warning", "fleet-never-received", "pair.mcl:5:35"),
+                     ("warning", "fleet-never-sent", "pair.mcl:8:26")]
+    assert fleet.vehicles["follower"].warnings[0].code == "fleet-never-sent"
+    assert compile_fleet_source(Source("pair.mcl", GOOD)).warnings == []

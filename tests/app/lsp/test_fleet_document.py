@@ -46,8 +46,14 @@ def test_a_vehicle_warning_is_a_diagnostic_too() -> None:
 
 def test_the_reading_features_answer_on_a_fleet() -> None:
     doc = analyse(str(RELAY), TEXT.replace("    VEHICLE leader", "VEHICLE leader"))
-    assert outline.symbols(doc) == []  # no outline of a fleet yet
-    assert isinstance(outline.completion(doc), list)
+    [fleet] = outline.symbols(doc)
+    assert fleet.name == "FLEET relay"
+    assert [k.name for k in fleet.children or []] == ["CHANNEL orders", "VEHICLE leader",
+                                                      "VEHICLE follower"]
+    follower = (fleet.children or [])[2]
+    assert [k.name for k in follower.children or []][-2:] == ["MISSION follow", "ON STOP"]
+    labels = {item.label for item in outline.completion(doc)}
+    assert {"Send", "Receive", "orders", "start", "abort", "LOSSY", "CHANNEL"} <= labels
     assert code_actions(doc, RELAY.as_uri()) == []
     assert inlay_hints(doc) == []
     [edit] = formatting(doc)
