@@ -89,6 +89,7 @@ bench: $(EXTRAS)
 	$(BIN)/python bench/bench_fleet_run.py
 	$(BIN)/python bench/bench_trackers.py
 	$(BIN)/python bench/bench_uuv_navigator.py
+	$(BIN)/python bench/bench_mcm.py
 	$(BIN)/python bench/bench_zenoh.py
 	$(BIN)/python bench/bench_mavlink.py
 
