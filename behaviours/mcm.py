@@ -6,17 +6,21 @@ ASV (navigates in {E}, good navigation): :class:`KeepStation` goes to the point 
 short of the mine on the line from where it started and holds there facing the mine;
 :class:`Reacquire` waits until the multibeam has re-found the mine and set the frame {T};
 :class:`TrackUUV` watches the sonar's detections of the UUV: ``acquired`` at the first,
-``landed`` when they stay still for ``still`` seconds after the UUV has gone 5 m, ``lost`` after ``patience`` seconds
-without one.
+``landed`` when they stay still for ``still`` seconds after the UUV has gone 5 m, ``lost``
+after ``patience`` seconds without one.
 
 UUV (navigates in {T}, the mine at its origin): :class:`KeepDepth` (2 m until acquired,
 §2); :class:`FollowLine` follows the line from where it is enabled to above the mine on its
 navigator's estimate (the ASV's fixes), descending to ``height`` above the mine: ``near``
-within ``distance`` of it; :class:`Home` homes on the camera to a point short of the mine
-facing it: ``over`` there, ``lost`` when the
-camera has not seen it for ``patience`` seconds; :class:`Land` descends to the bottom:
-``landed``; :class:`Snapshot` takes the verifying picture: ``taken`` if the mine is in it,
-``missed`` otherwise; :class:`Ascend` surfaces (the Ictineu's Surface, renamed).
+within ``distance`` of it; :class:`Home` homes on the camera to a point short of the mine,
+facing it: ``over`` there, ``lost`` when the camera has not seen it for ``patience``
+seconds; :class:`Land` descends to the bottom holding that point: ``landed``;
+:class:`Snapshot` takes the verifying picture: ``taken`` if the mine is in it, ``missed``
+otherwise; :class:`Ascend` surfaces (the Ictineu's Surface, renamed).
+
+They are not in the Ictineu's registry (behaviours/registry.py): each stack runs its own
+(vehicle/control/asv_stack.py, uuv_stack.py) and declares them from the classes
+(mission/mcm_vehicles.py); tests/behaviours/test_mcm.py checks the libraries against them.
 
 What they read beyond :class:`Perception` is in :class:`McmPerception`, filled by the stacks
 (vehicle/control/asv_stack.py, vehicle/control/uuv_stack.py).
