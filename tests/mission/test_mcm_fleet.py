@@ -121,6 +121,7 @@ def mcl(*args: str) -> subprocess.CompletedProcess[str]:
                           cwd=REPO, timeout=300)
 
 
+@pytest.mark.slow
 def test_a_bad_fault_is_one_line_and_exit_2() -> None:
     done = mcl("run", str(MCM), "--inject", "clutte@5")
     assert done.returncode == 2 and done.stdout == ""
