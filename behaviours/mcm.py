@@ -5,9 +5,9 @@ behaviour model (behaviours/base.py), declared in ``missions/asv.tasks`` and
 ASV (navigates in {E}, good navigation): :class:`KeepStation` goes to the point ``distance``
 short of the mine on the line from where it started and holds there facing the mine;
 :class:`Reacquire` waits until the multibeam has re-found the mine and set the frame {T};
-:class:`TrackUUV` watches the sonar's detections of the UUV: ``acquired`` at the first,
-``landed`` when they stay still for ``still`` seconds after the UUV has gone 5 m, ``lost``
-after ``patience`` seconds without one.
+:class:`DetectUUV` waits for the sonar's first detection of the UUV (``acquired``);
+:class:`TrackUUV` watches them: ``landed`` when they stay still for ``still`` seconds after
+the UUV has gone 5 m, ``lost`` after ``patience`` seconds without one.
 
 UUV (navigates in {T}, the mine at its origin): :class:`KeepDepth` (2 m until acquired,
 §2); :class:`FollowLine` follows the line from where it is enabled to above the mine on its
@@ -118,25 +118,41 @@ class Reacquire(Behaviour):
         return Response()
 
 
+class DetectUUV(Behaviour):
+    """Waits for the sonar's first detection of the UUV since it was enabled: ``acquired``."""
+
+    name = "DetectUUV"
+    events = ("acquired",)
+
+    def on_initialise(self, t: float) -> None:
+        self.since = t
+
+    def on_update(self, p: Perception) -> Response:
+        if any(d[0] >= self.since for d in as_mcm(p).uuv_track):
+            self.raise_event("acquired")
+        return Response()
+
+    since: float = 0.0
+
+
 class TrackUUV(Behaviour):
-    """Watches the sonar's detections of the UUV: ``acquired`` at the first one, ``landed``
-    when they have stayed within 0.5 m for ``still`` s (eight or more, over most of it) once it
-    has gone 5 m (it rests on the bottom, not waiting at 2 m under the ASV), ``lost``
-    after ``patience`` s without one (once acquired)."""
+    """Watches the sonar's detections of the UUV: ``landed`` when they have stayed within
+    0.5 m for ``still`` s (eight or more, over most of it) once it has gone 5 m (it rests on
+    the bottom, not waiting at 2 m under the ASV), ``lost`` after ``patience`` s without
+    one."""
 
     name = "TrackUUV"
-    events = ("acquired", "landed", "lost")
+    events = ("landed", "lost")
     parameters = ("still", "patience")
 
     def on_update(self, p: Perception) -> Response:
         q = as_mcm(p)
+        still, patience = self.param("still", 8.0), self.param("patience", 20.0)
         track = [d for d in q.uuv_track if d[0] >= self.since]
+        if q.t - (track[-1][0] if track else self.since) > patience:
+            self.raise_event("lost")
         if not track:
             return Response()
-        self.raise_event("acquired")
-        still, patience = self.param("still", 8.0), self.param("patience", 20.0)
-        if q.t - track[-1][0] > patience:
-            self.raise_event("lost")
         recent = [d for d in track if d[0] >= q.t - still]
         travelled = math.hypot(track[-1][1] - track[0][1], track[-1][2] - track[0][2])
         spans = bool(recent) and recent[-1][0] - recent[0][0] >= 0.8 * still
@@ -305,5 +321,5 @@ class Ascend(Surface):
     priority = 0
 
 
-ASV = (KeepStation, Reacquire, TrackUUV)
+ASV = (KeepStation, Reacquire, DetectUUV, TrackUUV)
 UUV = (KeepDepth, FollowLine, Home, Land, Snapshot, Ascend)

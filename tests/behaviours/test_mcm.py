@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
-import math
-
 import pytest
 
 from behaviours.base import Behaviour
-from behaviours.mcm import ASV, UUV, FollowLine, Home, McmPerception, Snapshot, TrackUUV
+from behaviours.mcm import (
+    ASV,
+    UUV,
+    DetectUUV,
+    FollowLine,
+    Home,
+    McmPerception,
+    Snapshot,
+    TrackUUV,
+)
 from diagnostics import Source
 from mcl import tasklib
 from tests.support import MISSIONS
@@ -72,12 +79,21 @@ def test_the_snapshot_needs_the_mine_in_view() -> None:
     assert [n for n, _ in missed.take_events()] == ["missed"]
 
 
-def test_track_uuv_tells_acquired_then_landed_when_the_echo_stays_still() -> None:
+def test_detect_uuv_says_acquired_at_the_first_detection_since_it_was_enabled() -> None:
+    b = DetectUUV()
+    b.initialise({}, 10.0)
+    b.update(see(11.0, 0.0, 0.0, uuv_track=((9.5, -3.0, 0.0),)))  # before it was enabled
+    assert b.take_events() == []
+    b.update(see(11.5, 0.0, 0.0, uuv_track=((9.5, -3.0, 0.0), (11.5, -3.0, 0.1))))
+    assert [n for n, _ in b.take_events()] == ["acquired"]
+
+
+def test_track_uuv_tells_landed_when_the_echo_stays_still_then_lost() -> None:
     b = TrackUUV()
     b.initialise({"still": 8.0, "patience": 20.0}, 0.0)
     moving = tuple((k / 2, -15.0 + 0.25 * k, 0.0) for k in range(0, 60))  # a ping every 0.5 s
     b.update(see(30.0, 0.0, 0.0, uuv_track=moving))
-    assert [n for n, _ in b.take_events()] == ["acquired"]
+    assert b.take_events() == []
     glimpses = moving + ((34.0, -1.0, 0.0), (35.0, -1.0, 0.0), (36.0, -1.0, 0.0))
     b.update(see(36.0, 0.0, 0.0, uuv_track=glimpses))
     assert b.take_events() == []  # seen still only over 2 s of the last 8: not yet
@@ -86,4 +102,3 @@ def test_track_uuv_tells_acquired_then_landed_when_the_echo_stays_still() -> Non
     assert [n for n, _ in b.take_events()] == ["landed"]
     b.update(see(70.0, 0.0, 0.0, uuv_track=still))
     assert [n for n, _ in b.take_events()] == ["lost"]
-    assert math.isfinite(b.since)

@@ -28,7 +28,7 @@ NAV_SIGMA = (0.1, math.radians(0.5))  # the ASV's position (m) and heading (rad)
 
 
 class AsvStack(McmStack):
-    """The ASV in the world: KeepStation, Reacquire, TrackUUV; the multibeam."""
+    """The ASV in the world: KeepStation, Reacquire, DetectUUV, TrackUUV; the multibeam."""
 
     classes = ASV
 
