@@ -142,3 +142,5 @@ def test_mcl_run_runs_the_mission_to_its_end_with_a_fault(tmp_path: Path) -> Non
     assert re.search(r"\n    navigator error: \d+\.\d\d m RMS, \d+\.\d\d m at most\n",
                      done.stdout)
     assert (tmp_path / "asv.jsonl").exists() and (tmp_path / "channels.jsonl").exists()
+    replayed = mcl("replay", str(tmp_path), str(MCM))  # the fault is in the logs' headers
+    assert replayed.returncode == 0 and "fleet mcm conforms" in replayed.stdout, replayed.stderr
