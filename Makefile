@@ -86,8 +86,10 @@ bench: $(EXTRAS)
 	$(BIN)/python bench/bench_vehicle.py
 	$(BIN)/python bench/bench_mosaic.py
 	$(BIN)/python bench/bench_dam_run.py
+	$(BIN)/python bench/bench_fleet_run.py
 	$(BIN)/python bench/bench_trackers.py
 	$(BIN)/python bench/bench_uuv_navigator.py
+	$(BIN)/python bench/bench_mcm.py
 	$(BIN)/python bench/bench_zenoh.py
 	$(BIN)/python bench/bench_mavlink.py
 

@@ -36,8 +36,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from diagnostics import file_error
 from mcl import values
 from mcl.api import Compiled, compile_file, parse_params
+from mcl.fleet import is_fleet
 from mission.exits import Exit
 from mission.limits import mission_bound
 from mission.progress import TaskProgress
@@ -47,7 +49,7 @@ from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
 
-from app import arguments, foxglove, vehicles
+from app import arguments, fleet_run, foxglove, vehicles
 from app.guard import guarded
 from app.mclc import OutputError, check_output, unread_pipe
 from app.monitor import task_detail
@@ -74,6 +76,7 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
                    help="run the simulated vehicle at wall-clock speed")
     r.add_argument("--log", metavar="FILE", help="run log (JSON Lines); default "
                    "out/runs/MISSION-TIME.jsonl")
+    fleet_run.add_options(r)  # --log-dir, --loss: a fleet's
     r.add_argument("--max-time", type=_seconds, default=None, metavar="SECONDS",
                    help="abort a mission that has not ended after this much mission time "
                         "(exit 4). Default: the longest the mission can last by its "
@@ -127,20 +130,20 @@ def _seconds(text: str) -> float:
     return value
 
 
-def _check_log(path: Path) -> None:
+def _check_log(path: Path, option: str = "--log") -> None:
     """The run log's path, checked before the run: its folder is made if missing."""
     if path.is_dir():
-        raise OutputError(str(path), "--log", "is a directory")
+        raise OutputError(str(path), option, "is a directory")
     if unread_pipe(path):
-        raise OutputError(str(path), "--log", "a named pipe nobody reads: writing would wait "
+        raise OutputError(str(path), option, "a named pipe nobody reads: writing would wait "
                           "for ever")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise OutputError(str(path), "--log", f"cannot make its folder: "
+        raise OutputError(str(path), option, f"cannot make its folder: "
                           f"{exc.strerror or exc}") from None
     if not os.access(path.parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        raise OutputError(str(path), "--log", "permission denied")
+        raise OutputError(str(path), option, "permission denied")
 
 
 def _warn_late_faults(compiled: Compiled, injected: list[str], limit: float | None) -> None:
@@ -166,6 +169,16 @@ def _param_texts(overrides: dict[str, Any]) -> dict[str, str]:
 
 
 def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
+    if is_fleet(args.mission):  # several vehicles and their channels: app/fleet_run.py
+        if args.log_dir:
+            _check_log(Path(args.log_dir) / "channels.jsonl", "--log-dir")
+        return fleet_run.run(args, Signer.load(args.log_key) if args.log_key is not None
+                             else None, _Timeline)
+    if args.loss or args.log_dir:
+        option = "--loss" if args.loss else "--log-dir"
+        raise file_error(args.mission, f"{option}: only for a fleet, and this file is a single "
+                         "mission", f"leave {option} out (a fleet file starts with FLEET)",
+                         "fleet-option")
     _check_log(Path(args.log) if args.log else Path("out/runs/MISSION.jsonl"))
     if args.mcap is not None:
         check_output(args.mcap, "--mcap")

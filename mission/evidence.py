@@ -30,8 +30,10 @@ HOW_EXITS: dict[str, frozenset[int]] = {
     "signal": frozenset({Exit.UNDECIDED, *range(SIGNAL_BASE + 1, SIGNAL_BASE + 65)}),
     "error": frozenset({Exit.VEHICLE, Exit.INTERNAL}), "refused": frozenset({Exit.INVALID}),
     "no vehicle": frozenset({Exit.NO_VEHICLE}), "log failed": frozenset({Exit.UNDECIDED}),
+    "fleet": frozenset({Exit.UNDECIDED}),  # stopped because another vehicle of its fleet failed
 }
 FAULT = re.compile(r"^[a-z]+@[0-9.eE+-]{1,30}$")  # --inject FAULT@SECONDS
+SETTING = re.compile(r"^[a-z]+=[0-9.eE+-]{1,30}(,[0-9.eE+-]{1,30}){0,3}$")  # current=VX,VY
 
 
 def _text_map(value: Any) -> bool:
@@ -43,11 +45,16 @@ def _texts(value: Any) -> bool:
 
 
 def _fault(text: str) -> bool:
-    """``FAULT@SECONDS`` with a finite number of seconds."""
-    if not FAULT.match(text):
+    """``FAULT@SECONDS`` with a finite number of seconds, or a setting of the simulated world
+    ``NAME=X[,Y...]`` of finite numbers (paper 003's ``current=0.2,0``, docs/MCM.md)."""
+    if SETTING.match(text):
+        numbers = text.split("=")[1].split(",")
+    elif FAULT.match(text):
+        numbers = [text.split("@")[1]]
+    else:
         return False
     try:
-        return math.isfinite(float(text.split("@")[1]))
+        return all(math.isfinite(float(n)) for n in numbers)
     except ValueError:
         return False
 
@@ -71,10 +78,12 @@ HEADER: dict[str, tuple[bool, str, Callable[[Any], bool]]] = {
     "vehicle": (False, "the --vehicle text", lambda v: isinstance(v, str)),
     "seed": (False, "a seed from 0 to 2**63 - 1",
              lambda v: isinstance(v, int) and not isinstance(v, bool) and 0 <= v < 2**63),
-    "inject": (False, "a list of FAULT@SECONDS",
+    "inject": (False, "a list of FAULT@SECONDS or NAME=X,Y",
                lambda v: _texts(v) and all(_fault(x) for x in v)),
     "max_time": (False, "a positive number of seconds", _seconds),
     "time": (False, "the note on mission time", lambda v: isinstance(v, str)),
+    "fleet": (False, "the fleet's name", lambda v: isinstance(v, str)),  # mission/fleet.py
+    "as": (False, "the vehicle's name in its fleet", lambda v: isinstance(v, str)),
 }
 
 
