@@ -6,6 +6,10 @@
   (app/reports/formats.py: the MCL line of the counterexample's last step, the line that
   turned the behaviour on), with every step of the counterexample, and of a lasso's loop, as
   related information at its own MCL line.
+* In a fleet, each vehicle's properties likewise, their messages after the vehicle's name;
+  then each fleet property that fails or is undecided, where mclc's reports put it, with its
+  counterexample's steps interleaved as the run took them, each vehicle's at its MCL line
+  and a channel's (a message ignored or lost) at the channel's declaration.
 """
 
 from __future__ import annotations
@@ -56,29 +60,75 @@ def from_mcl(source: Source, d: Diagnostic) -> types.Diagnostic:
                             code=d.code or None, source=SOURCE)
 
 
-def from_verification(source: Source, verification: dict[str, Any]) -> list[types.Diagnostic]:
+def from_verification(source: Source, verification: dict[str, Any],
+                      vehicle: str = "") -> list[types.Diagnostic]:
     """Each property of mclc's verdict (its JSON, ``Verdict.to_json()``) that fails or is
-    undecided, at the place mclc's reports give it."""
+    undecided, at the place mclc's reports give it; in a fleet, ``vehicle``'s verdict (its
+    name before each message)."""
     out = []
     for p in verification.get("properties", []):
         if p["holds"] or p["property"] in NOT_ACTIONABLE:
             continue
-        [where] = problems({"file": source.name, "verification": {"properties": [p]}})
-        undecided = p.get("status") == "undecided"
         steps = [("", s) for s in p.get("counterexample") or []]
         steps += [("loop: ", s) for s in p.get("cycle") or []]
         related = [types.DiagnosticRelatedInformation(
             types.Location(uris.from_fs_path(s["file"]) or s["file"],
                            word_range(source, s["line"], s["col"])),
-            f"{i}. {loop}{s['construct']}: {s['label']}"
-            + (f" on {s['event']}" if s.get("event") else ""))
+            f"{i}. {loop}{step_text(s)}")
             for i, (loop, s) in enumerate(steps, 1) if s.get("file")]
-        out.append(types.Diagnostic(
-            word_range(source, where["line"], where["col"]),
-            ("undecided: " if undecided else "") + p["message"],
-            severity=SEVERITY[where["level"]], code=p["property"], source=SOURCE,
-            related_information=related or None))
+        out.append(property_diagnostic(source, p, related, f"{vehicle}: " if vehicle else ""))
     return out
+
+
+def from_fleet(source: Source, fleet: dict[str, Any]) -> list[types.Diagnostic]:
+    """Each fleet property of a fleet's verdict (``FleetVerdict.to_json()`` with
+    ``channel_places``) that fails or is undecided, at the place mclc's reports give it (the
+    MCL line of its counterexample's last vehicle step), with every step, each vehicle's and
+    each channel's, in the order of the run."""
+    uri = uris.from_fs_path(source.name) or source.name
+    places = fleet.get("channel_places", {})
+    out = []
+    for p in fleet.get("properties", []):
+        if p["holds"]:
+            continue
+        steps = [("", s) for s in p.get("counterexample") or []]
+        steps += [("loop: ", s) for s in p.get("cycle") or []]
+        related = []
+        for i, (loop, s) in enumerate(steps, 1):
+            if s.get("vehicle") is None:  # a channel's step: at the channel's declaration
+                line, col = places.get(s.get("channel"), (0, 0))
+                text = s["text"]
+            else:
+                line, col = s.get("line") or 0, s.get("col") or 0
+                text = f"{s['vehicle']} {step_text(s)}"
+            related.append(types.DiagnosticRelatedInformation(
+                types.Location(uris.from_fs_path(s["file"]) or s["file"]
+                               if s.get("file") else uri, word_range(source, line, col)),
+                f"{i}. {loop}{text}"))
+        out.append(property_diagnostic(source, p, related, f"fleet {fleet['fleet']}: "))
+    return out
+
+
+def step_text(step: dict[str, Any]) -> str:
+    """A step of a counterexample in the mission's words: construct, what happened, the
+    event it took."""
+    event = step.get("event")
+    return f"{step['construct']}: {step['label']}" + (
+        f" on {event}" if event and event not in step["label"] else "")
+
+
+def property_diagnostic(source: Source, p: dict[str, Any],
+                        related: list[types.DiagnosticRelatedInformation],
+                        whose: str) -> types.Diagnostic:
+    """A property that fails or is undecided, at the place mclc's reports give it."""
+    [where] = problems({"file": source.name, "verification": {"properties": [p]}})
+    said = p["message"]
+    if p.get("status") == "undecided" and not said.startswith("undecided"):
+        said = "undecided: " + said
+    return types.Diagnostic(
+        word_range(source, where["line"], where["col"]), whose + said,
+        severity=SEVERITY[where["level"]], code=p["property"], source=SOURCE,
+        related_information=related or None)
 
 
 def stopped(source: Source, why: str) -> types.Diagnostic:

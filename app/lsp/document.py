@@ -30,14 +30,23 @@ class Document:
     library: tasklib.Library | None = None
     checked: checker.Checked | None = None
     diagnostics: list[Diagnostic] = field(default_factory=list)
-    fleet: ast.Fleet | None = None  # a fleet file (FLEET ...): checked, never proved here
+    fleet: ast.Fleet | None = None  # a fleet file (FLEET ...): each vehicle checked here
     # a fleet's vehicles, each as a document of its own mission (for hover and definition)
     vehicles: dict[str, Document] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
-        """Checked without an error: the proofs may run."""
+        """A single mission checked without an error."""
         return self.checked is not None
+
+    @property
+    def provable(self) -> bool:
+        """Checked without an error, a mission or every vehicle of a fleet: the proofs may
+        run (app/lsp/proofs.py)."""
+        if self.fleet is not None:
+            return bool(self.vehicles) and all(v.checked is not None
+                                               for v in self.vehicles.values())
+        return self.ok
 
     def vehicle_at(self, line: int, col: int) -> Document | None:
         """In a fleet, the document of the vehicle written at 1-based ``line:col``."""
@@ -79,7 +88,8 @@ def analyse(path: str, text: str, version: int | None = None) -> Document:
 
 def analyse_fleet(doc: Document) -> Document:
     """A fleet file: parsed, then every vehicle checked (mcl/fleet.py); its errors, or every
-    vehicle's warnings, are the document's diagnostics (the caller catches the errors)."""
+    vehicle's warnings, are the document's diagnostics (the caller catches the errors). Its
+    proofs, each vehicle's and the fleet's, run apart as a mission's do."""
     unit = parser.parse_unit(doc.source)
     assert isinstance(unit, ast.Fleet)
     doc.fleet = unit

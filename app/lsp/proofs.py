@@ -9,6 +9,12 @@ vehicle named (``mcl lsp --vehicle sim``), the mission is also checked against w
 declares, as ``mcl run`` does before the first action (mission/capabilities.py). A newer
 change, a closed document or :data:`PROOF_SECONDS` of proof end the child at once
 (``terminate``): a proof never runs on for a text nobody sees.
+
+A fleet (a file whose top level is ``FLEET``) is proved as ``mclc`` proves it: each vehicle's
+mission by the same call as a single mission's (its receptions as events of its
+environment), then the fleet's own properties (mcl.analysis.fleet_verification.verify_fleet,
+``auto``) within :data:`FLEET_MAX_MARKINGS` joint markings: beyond them the compositional
+route, so that a fleet's proof stays within seconds.
 """
 
 from __future__ import annotations
@@ -16,20 +22,25 @@ from __future__ import annotations
 import asyncio
 import multiprocessing
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from typing import Any
 
 from aal.messages import Declaration
 from behaviours import capabilities
 from diagnostics import Diagnostic, MclError, Source
+from mcl.analysis.fleet_verification import verify_fleet
 from mcl.analysis.verification import MAX_BYTES, MAX_MARKINGS, verify_mission
-from mcl.api import compile_source
+from mcl.api import Compiled, compile_source
+from mcl.fleet import compile_fleet_source, is_fleet
 from mission.capabilities import check_capabilities
 
 PROOF_DELAY = 0.4  # seconds of quiet after a change before its proof starts
 PROOF_SECONDS = 120.0  # a proof still running after this long is stopped
 POLL = 0.05  # seconds between looks at a running proof
+# A fleet's product explored within this many joint markings (about 10 s here), else the
+# compositional route (mclc --max-markings 500000 proves the fleet's own properties alike)
+FLEET_MAX_MARKINGS = 500_000
 
 # The vehicles a mission can be checked against in the editor: their declarations.
 VEHICLES: dict[str, Callable[[str], Declaration]] = {
@@ -42,33 +53,70 @@ VEHICLES: dict[str, Callable[[str], Declaration]] = {
 class Outcome:
     """What a proof reports. ``kind``: "verified" (``verification``: mclc's verdict as its
     JSON, ``Verdict.to_json()``; ``lacks``: what the vehicle does not have), "invalid" (a
-    text the pipeline rejects: its errors are shown already) or "stopped" (``why``)."""
+    text the pipeline rejects: its errors are shown already) or "stopped" (``why``). For a
+    fleet, ``vehicles``: each vehicle's verdict (as ``verification``), and ``fleet``: the
+    fleet's (``FleetVerdict.to_json()``, with ``channel_places``: each channel's
+    ``[line, col]``, where its steps of a counterexample are shown)."""
 
     kind: str
     verification: dict[str, Any] | None = None
     lacks: tuple[Diagnostic, ...] = ()
     why: str = ""
+    vehicles: dict[str, dict[str, Any]] = field(default_factory=dict)
+    fleet: dict[str, Any] | None = None
 
 
 Report = Callable[[str, int | None, Outcome], None]  # (uri, version, outcome)
 
 
 def prove(path: str, text: str, vehicle: str | None = None, max_markings: int = MAX_MARKINGS,
-          max_bytes: int = MAX_BYTES) -> Outcome:
-    """mclc's verdict on the mission ``text`` (at ``path``), and what ``vehicle`` (a name of
-    :data:`VEHICLES`) lacks to run it."""
+          max_bytes: int = MAX_BYTES, fleet_markings: int = FLEET_MAX_MARKINGS) -> Outcome:
+    """mclc's verdict on the mission or fleet ``text`` (at ``path``), and what ``vehicle`` (a
+    name of :data:`VEHICLES`) lacks to run it (a fleet's product: within
+    ``fleet_markings``)."""
+    source = Source(path, text)
+    if is_fleet(source):
+        return prove_fleet(source, vehicle, max_markings, max_bytes, fleet_markings)
     try:
-        compiled = compile_source(Source(path, text))
+        compiled = compile_source(source)
+    except MclError:
+        return Outcome("invalid")
+    lacks = lacking(compiled, vehicle)
+    verdict = verify_mission(compiled, "auto", max_markings=max_markings, max_bytes=max_bytes)
+    return Outcome("verified", verdict.to_json(), lacks)
+
+
+def prove_fleet(source: Source, vehicle: str | None, max_markings: int, max_bytes: int,
+                fleet_markings: int) -> Outcome:
+    """A fleet proved as ``mclc`` proves it (the module's doc)."""
+    try:
+        fleet = compile_fleet_source(source, require_values=False)
     except MclError:
         return Outcome("invalid")
     lacks: tuple[Diagnostic, ...] = ()
-    if vehicle is not None:
-        try:
-            check_capabilities(compiled, VEHICLES[vehicle](vehicle))
-        except MclError as exc:
-            lacks = tuple(exc.diagnostics)
-    verdict = verify_mission(compiled, "auto", max_markings=max_markings, max_bytes=max_bytes)
-    return Outcome("verified", verdict.to_json(), lacks)
+    vehicles = {}
+    for name, compiled in fleet.vehicles.items():
+        lacks += lacking(compiled, vehicle, tuple(fleet.channels))
+        vehicles[name] = verify_mission(compiled, "auto", max_markings=max_markings,
+                                        max_bytes=max_bytes).to_json()
+    verdict = verify_fleet(fleet, "auto", max_markings=min(max_markings, fleet_markings),
+                           max_bytes=max_bytes).to_json()
+    verdict["channel_places"] = {c.name: [c.origin.line, c.origin.col]
+                                 for c in fleet.channels.values()}
+    return Outcome("verified", lacks=lacks, vehicles=vehicles, fleet=verdict)
+
+
+def lacking(compiled: Compiled, vehicle: str | None,
+            channels: tuple[str, ...] = ()) -> tuple[Diagnostic, ...]:
+    """What ``vehicle`` (a name of :data:`VEHICLES`, or None: nothing checked) lacks to run
+    the mission; a fleet's ``channels`` carry its Send and Receive, not the vehicle."""
+    if vehicle is None:
+        return ()
+    try:
+        check_capabilities(compiled, VEHICLES[vehicle](vehicle), channels)
+    except MclError as exc:
+        return tuple(exc.diagnostics)
+    return ()
 
 
 def work(out: Connection, path: str, text: str, vehicle: str | None) -> None:

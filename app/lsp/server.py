@@ -2,7 +2,8 @@
 
 On every change the mission goes through the parser, its libraries and the checker at once
 (app/lsp/document.py) and their errors are published; the proofs follow in a process of their
-own once typing pauses (app/lsp/proofs.py), and their failures join the diagnostics. Hover,
+own once typing pauses (app/lsp/proofs.py; a fleet's: each vehicle's, then the fleet's own),
+and their failures join the diagnostics. Hover,
 definition, rename, completion, symbols, code actions, inlay hints and formatting (``mcl
 fmt``'s layout) read the document as
 the pipeline left it (the last version that parsed, for completion while a line is half
@@ -55,7 +56,7 @@ class MclLanguageServer(LanguageServer):
             self.parsed[uri] = doc
         self.proved.pop(uri, None)
         self.publish(uri)
-        if doc.ok:
+        if doc.provable:
             self.prover.request(uri, path, text_document.source, doc.version)
         else:
             self.prover.cancel(uri)
@@ -70,10 +71,8 @@ class MclLanguageServer(LanguageServer):
         doc = self.documents.get(uri)
         if doc is None or doc.version != version:
             return  # a proof of a text that is no longer there
-        if outcome.kind == "verified" and outcome.verification is not None:
-            self.proved[uri] = ([diagnostics.from_mcl(doc.source, d) for d in outcome.lacks]
-                                + diagnostics.from_verification(doc.source,
-                                                                outcome.verification))
+        if outcome.kind == "verified":
+            self.proved[uri] = proved(doc, outcome)
         elif outcome.kind == "stopped":
             self.proved[uri] = [diagnostics.stopped(doc.source, outcome.why)]
         self.publish(uri)
@@ -90,6 +89,19 @@ class MclLanguageServer(LanguageServer):
             return None
         thing = at(doc.mission, position.line + 1, position.character + 1)
         return None if thing is None else (doc, thing)
+
+
+def proved(doc: Document, outcome: proofs.Outcome) -> list[types.Diagnostic]:
+    """A proof's diagnostics: what the vehicle lacks, each failed or undecided property (in a
+    fleet: each vehicle's, then the fleet's own)."""
+    found = [diagnostics.from_mcl(doc.source, d) for d in outcome.lacks]
+    if outcome.verification is not None:
+        found += diagnostics.from_verification(doc.source, outcome.verification)
+    for name, verification in outcome.vehicles.items():
+        found += diagnostics.from_verification(doc.source, verification, name)
+    if outcome.fleet is not None:
+        found += diagnostics.from_fleet(doc.source, outcome.fleet)
+    return found
 
 
 def make_server(delay: float = proofs.PROOF_DELAY,

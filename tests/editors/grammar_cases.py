@@ -1,5 +1,6 @@
 """Test cases for the editor's TextMate grammars (editors/vscode/syntaxes/), made from the
-shipped missions and task libraries with the parser's own lexer as the oracle.
+shipped missions (fleets included) and task libraries with the parser's own lexer as the
+oracle.
 
 Each file is copied with a ``// SYNTAX TEST`` header and, under each line, assertions in the
 format of ``vscode-tmgrammar-test``: the scope every token of the line must have, as lark's
@@ -18,14 +19,16 @@ from lark import Lark, Token
 
 from diagnostics import Source
 from mcl.formatter import lexed
-from tests.support import single_missions
-
 REPO = Path(__file__).resolve().parents[2]
-SHIPPED_MISSIONS = single_missions()
+SHIPPED_MISSIONS = sorted((REPO / "missions").glob("*.mcl"))  # fleet files too
 SHIPPED_LIBRARIES = sorted([*(REPO / "mcl" / "tasks").glob("*.tasks"),
                             *(REPO / "missions").glob("*.tasks")])
 CONTROL = {"TRY", "CATCH", "DO", "PARALLEL", "AND", "OR", "IF", "THEN", "ELSE", "WHILE"}
 OTHER = {"MISSION", "PARAM", "USES", "ON", "STOP"}
+FLEET = {"FLEET", "VEHICLE", "CHANNEL", "FROM", "TO", "DELAY", "EVERY", "LOSSY", "MESSAGES"}
+LINKS = {"ACOUSTIC", "RADIO", "TETHER"}
+SECTIONS = {"MISSION", "FLEET", "VEHICLE"}  # the name after one is a section's
+CONSTANTS = {"PARAM", "CHANNEL"}  # the name after one is a declared constant
 CLAUSES = {"start", "stop", "ok", "fail", "timeout", "latch", "unlatch", "estimate"}
 TASK_WORDS = {"dofs", "drives", "events", "power", "in"}
 
@@ -51,10 +54,14 @@ def mission_scopes(text: str) -> list[tuple[Token, str]]:
             scope = "keyword.control.mcl"
         elif scope is None and tok.value in OTHER:
             scope = "keyword.other.mcl"
+        elif scope is None and tok.value in FLEET and tok.type != "NAME":
+            scope = "keyword.other.fleet.mcl"
+        elif scope is None and tok.value in LINKS and tok.type != "NAME":
+            scope = "constant.language.link.mcl"
         elif scope is None and tok.type == "NAME":
-            if prev is not None and prev.value == "MISSION":
+            if prev is not None and prev.value in SECTIONS and prev.type != "NAME":
                 scope = "entity.name.section.mcl"
-            elif prev is not None and prev.value == "PARAM":
+            elif prev is not None and prev.value in CONSTANTS and prev.type != "NAME":
                 scope = "variable.other.constant.mcl"
             elif nxt is not None and nxt.value == "(":
                 scope = "entity.name.function.mcl"

@@ -1,7 +1,8 @@
 """The VS Code extension (editors/vscode/): its manifest names what it ships, the test cases
 of its grammars come from the parser's own lexer, and (where its Node packages are installed:
 ``make vscode-test``, which ``make vsix`` and CI run) the grammars pass them on every shipped
-mission and task library, and fail a case that expects a wrong colour."""
+mission (fleets included) and task library, and on every word of a fleet, and fail a case
+that expects a wrong colour."""
 
 from __future__ import annotations
 
@@ -53,6 +54,36 @@ def test_the_oracle_reads_a_mission_as_the_parser_does() -> None:
         ("min", "keyword.other.unit.mcl")]
 
 
+# every fleet word, three links, two receivers and a DELAY written without blanks round ".."
+FLEET = """FLEET f {
+    CHANNEL a FROM x TO y, z ACOUSTIC DELAY 1 s..4 s EVERY 2 s LOSSY MESSAGES go, stop;
+    CHANNEL b FROM y TO x RADIO DELAY 0.5 s .. 1 s MESSAGES done;
+    CHANNEL c FROM z TO x TETHER DELAY 0 s .. 0.1 s MESSAGES done;
+    VEHICLE x { MISSION { Send(a, go); Receive(b, done, timeout = 1 min) } }
+    VEHICLE y { MISSION { Receive(a, go, timeout = 1 min); Send(b, done) } }
+    VEHICLE z { MISSION m { Receive(a, go, timeout = 1 min); Send(c, done) } ON STOP { Surface() } }
+}
+"""
+
+
+def test_the_oracle_reads_a_fleet_as_the_parser_does() -> None:
+    got = [(t.value, scope) for t, scope in mission_scopes(FLEET)]
+    assert got[:14] == [
+        ("FLEET", "keyword.other.fleet.mcl"), ("f", "entity.name.section.mcl"),
+        ("CHANNEL", "keyword.other.fleet.mcl"), ("a", "variable.other.constant.mcl"),
+        ("FROM", "keyword.other.fleet.mcl"), ("x", "variable.other.mcl"),
+        ("TO", "keyword.other.fleet.mcl"), ("y", "variable.other.mcl"),
+        ("z", "variable.other.mcl"), ("ACOUSTIC", "constant.language.link.mcl"),
+        ("DELAY", "keyword.other.fleet.mcl"), ("1", "constant.numeric.mcl"),
+        ("s", "keyword.other.unit.mcl"), ("4", "constant.numeric.mcl")]
+    scopes = dict(got)
+    for word in ("EVERY", "LOSSY", "MESSAGES", "VEHICLE"):
+        assert scopes[word] == "keyword.other.fleet.mcl"
+    assert scopes["RADIO"] == scopes["TETHER"] == "constant.language.link.mcl"
+    assert scopes["Send"] == scopes["Receive"] == "entity.name.function.mcl"
+    assert ("m", "entity.name.section.mcl") in got and ("go", "variable.other.mcl") in got
+
+
 def test_the_oracle_reads_a_library_as_the_parser_does() -> None:
     text = "dofs z;\nbehaviour Dive drives z power 5 W;\ntask Dive() {\n    start: enable Dive;\n}\n"
     got = [(t.value, scope) for t, scope in library_scopes(text)]
@@ -89,6 +120,18 @@ def test_the_grammars_colour_the_shipped_files_as_the_parser_reads_them(tmp_path
     proc = run_grammar_tests(tmp_path)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert proc.stdout.count("run successfuly") == len(cases)
+
+
+def test_the_shipped_cases_hold_a_fleet(tmp_path: Path) -> None:
+    names = {c.name for c in write_cases(tmp_path)}
+    assert "fleet_relay.mcl" in names and "dam_inspection.mcl" in names
+
+
+def test_the_grammar_colours_every_fleet_word(tmp_path: Path) -> None:
+    (tmp_path / "fleet.mcl").write_text(
+        with_assertions(FLEET, "source.mcl", "fleet", mission_scopes(FLEET)), "utf-8")
+    proc = run_grammar_tests(tmp_path)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
 def test_a_wrong_colour_fails(tmp_path: Path) -> None:
