@@ -20,6 +20,7 @@ from diagnostics import MclError, Source, Span
 from mcl.api import parse_params
 from mcl.fleet import CompiledFleet, Params, compile_fleet_file
 
+from app.fleet_proof import prove_fleet, vehicle_method
 from app.mission_report import SEVERITY, verify_and_report
 from mission.exits import Exit
 
@@ -38,12 +39,16 @@ def check_fleet(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, di
         print(f"{path}: fleet {fleet.name}: {n} vehicle{'s' * (n != 1)}, "
               f"{c} channel{'s' * (c != 1)}")
     status = Exit.OK
+    each = argparse.Namespace(**{**vars(args), "method": vehicle_method(args.method)})
     for name, compiled in fleet.vehicles.items():
         one, vehicle_report = verify_and_report(
-            compiled, args, fmt, title=f"vehicle {name}" + (
+            compiled, each, fmt, title=f"vehicle {name}" + (
                 f": mission {compiled.mission.name}" if compiled.mission.name else ""))
         vehicle_report["vehicle"] = name
         report["vehicles"].append(vehicle_report)
+        status = max(status, one, key=SEVERITY.index)
+    if not args.no_verify:  # the fleet's own properties (app/fleet_proof.py)
+        one, report["fleet_properties"] = prove_fleet(fleet, args, fmt)
         status = max(status, one, key=SEVERITY.index)
     report["status"] = _status(status)
     return status, report

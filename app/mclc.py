@@ -69,13 +69,16 @@ def _parser(prog: str = "mclc") -> argparse.ArgumentParser:
                    default=None, help="report format on standard output (default text): "
                    "json, JUnit XML, SARIF 2.1.0, or GitHub Actions annotations")
     p.add_argument("--no-verify", action="store_true", help="compile only; do not verify")
-    p.add_argument("--method", choices=["auto", "explicit", "structural"], default="auto",
+    p.add_argument("--method", choices=["auto", "explicit", "structural", "compositional"],
+                   default="auto",
                    help="explicit: enumerate every reachable marking (exact, with firing "
                         "sequences); structural: templates verified with generic children plus "
                         "outcome and static analyses of the syntax tree (for missions too large "
                         "to enumerate); auto (default): explicit when its estimated memory fits "
                         "1 GiB, completed by structural if the exploration is cut "
-                        "(mcl/analysis/verification.py)")
+                        "(mcl/analysis/verification.py); compositional (a fleet only): each "
+                        "vehicle proved alone against its channels, the product never built "
+                        "(docs/METHODS.md, Fleets)")
     p.add_argument("--max-markings", type=_positive, default=5_000_000, metavar="N",
                    help="explicit route: stop after N markings; what the cut exploration "
                         "cannot decide is reported undecided (exit 4) (default 5,000,000)")
@@ -246,10 +249,14 @@ def _invalid(path: str, diagnostics: list[Diagnostic]) -> dict[str, Any]:
 def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str, Any]]:
     if args.graphml is not None:
         check_output(args.graphml, "--graphml")
-    if path.lower().endswith(PNML_FILES):
-        return _pnml(path, args, fmt)
     if is_fleet(path):
         return check_fleet(path, args, fmt)
+    if args.method == "compositional":
+        raise MclError("--method compositional proves a fleet, and this file is not one",
+                       span=Span.of_file(path), hint="use auto, explicit or structural for "
+                       "a mission or a net", code="fleet-option")
+    if path.lower().endswith(PNML_FILES):
+        return _pnml(path, args, fmt)
     params = parse_params(args.param, args.params)
     compiled = compile_file(path, args.tasks or None, params)
     _write_outputs(compiled, args)

@@ -2,6 +2,7 @@
 
 Two fleets, each proved by every route (explicit product, compositional, auto):
 
+* ``missions/mcm.mcl``, paper 003's mission (issue 24), when it exists (target: 5 s, 1 GiB);
 * the two-vehicle guide fleet of the tests (tests/mcl/analysis/fleet_missions.py): a surface
   vehicle that sends ``release`` then a fix every 2 s for a minute over a lossy channel, and
   a vehicle that dives on the release, follows the fixes and surfaces when they stop;
@@ -31,7 +32,7 @@ sys.path.insert(0, str(REPO))
 
 from diagnostics import Source
 from mcl.analysis.fleet_verification import FleetVerdict, verify_fleet
-from mcl.fleet import CompiledFleet, compile_fleet_source
+from mcl.fleet import CompiledFleet, compile_fleet_file, compile_fleet_source
 from tests.mcl.analysis.fleet_missions import fleet
 
 
@@ -69,7 +70,11 @@ def main() -> None:
     args = ap.parse_args()
     print(f"{'fleet':<12} {'method':<14} {'markings':>10} {'seconds':>8} {'peak MiB':>9}  "
           "verdict")
-    for name, f in (("guide (2)", fleet()), ("dam x 2", dam_pair())):
+    fleets = [("guide (2)", fleet()), ("dam x 2", dam_pair())]
+    mcm = REPO / "missions" / "mcm.mcl"  # paper 003's mission (issue 24), once it exists
+    if mcm.exists():
+        fleets.insert(1, ("mcm", compile_fleet_file(str(mcm))))
+    for name, f in fleets:
         for method in ("explicit", "compositional", "auto"):
             seconds, mib, v = measure(f, method, args.runs, args.max_bytes)
             verdict = "proved" if v.ok else "FAILS" if v.failed else "undecided"

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
+from app.reports.fleet import fleet_entry
 from app.reports.rules import docs_uri, rule
 
 NOT_ACTIONABLE = {"no-dead-transitions"}  # for a mission: template paths it cannot take
@@ -111,8 +112,10 @@ def _suite(report: dict[str, Any]) -> str:
 
 
 def flat(reports: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The reports of missions: a fleet's report (``vehicles``) gives one per vehicle."""
-    return [r for report in reports for r in (report.get("vehicles") or [report])]
+    """The reports of missions: a fleet's report (``vehicles``) gives one per vehicle, then
+    one for the fleet's own properties."""
+    return [r for report in reports
+            for r in (report.get("vehicles") or [report]) + fleet_entry(report)]
 
 
 def junit(reports: list[dict[str, Any]]) -> str:

@@ -69,15 +69,20 @@ class Views:
         self.expanded = n if ss.expanded < 0 else ss.expanded
         self.adj = Adjacency(n, ss.src, ss.dst)
 
-    def who_waits(self, row: int) -> str:
-        """The vehicles not ended at joint marking ``row`` and the tasks they run."""
+    def who_waits(self, row: int, among: set[str] | None = None) -> str:
+        """The vehicles not ended at joint marking ``row`` (of ``among``, when given) and
+        the tasks they run."""
         parts = []
         for v, s in self.fnet.slices.items():
-            if not self.ended[v][row]:
+            if not self.ended[v][row] and (among is None or v in among):
                 running = s.rules.running_tasks(self.fnet.vehicle_marking(
                     self.ss.markings[row], v))
-                parts.append(f"{v} (at {', '.join(running) or 'no task'})")
+                parts.append(v + (f" (at {', '.join(running)})" if running else ""))
         return ", ".join(parts)
+
+    def on_cycle(self, cycle: list[int]) -> set[str]:
+        """The vehicles whose own transitions make up a loop."""
+        return {v for t in cycle if (v := self.fnet.steps[t].vehicle) is not None}
 
     def left_on(self, row: int) -> str:
         parts = []
@@ -119,7 +124,8 @@ def decide(fnet: FleetNet, ss: StateSpace, terminates: Terminates, how: str,
                        "no vehicle waits for ever: every joint marking without a successor "
                        "has every vehicle ended",
                        lambda r: f"a vehicle can wait for ever: {views.who_waits(r)}", how, cut))
-    out.append(_reach_end(views, "fleet-can-end", views.all_ended, None, how, cut, hush))
+    can_end = _reach_end(views, "fleet-can-end", views.all_ended, None, how, cut, hush)
+    out.append(can_end)
     silent = np.ones(len(ss.src), bool)
     hushed = [t for t, s in enumerate(fnet.steps) if quiet(s)]
     if len(ss.src):
@@ -130,7 +136,7 @@ def decide(fnet: FleetNet, ss: StateSpace, terminates: Terminates, how: str,
                        "no vehicle has a behaviour on once it has ended",
                        lambda r: f"a vehicle can end with {views.left_on(r)} still on",
                        how, cut))
-    out.append(_terminates(views, terminates, how))
+    out.append(_terminates(views, terminates, how, can_end))
     twice = two_waiting(fnet, ss)
     if twice:  # the player hands one delivery to both; the product to one: not modelled
         out = [undecided(r.name, f"undecided: {twice}", r.method) if r.holds else r
@@ -184,14 +190,16 @@ def _reach_end(views: Views, name: str, goal: Mask, arcs: Mask | None, how: str,
     if loop is not None and not silence:
         at, prefix, cycle = loop
         return Result(name, False, "error", f"the fleet can go round for ever: "
-                      f"{views.who_waits(at)} cannot end", how, prefix, at, cycle=cycle)
+                      f"{views.who_waits(at, views.on_cycle(cycle))} goes round and cannot "
+                      "end", how, prefix, at, cycle=cycle)
     # the run to the first such marking, then (silent) on to where it gets stuck or loops
     stuck = bad & (np.bincount(ss.src[keep], minlength=ss.n_markings) == 0)
     rest, end = sub.path(first, stuck, within=bad) if not stuck[first] else ([], first)
     if end < 0 and loop is not None:
         at, prefix, cycle = loop
         return Result(name, False, "error", f"when {hush}, "
-                      f"{views.who_waits(at)} can go round for ever", how, prefix, at,
+                      f"{views.who_waits(at, views.on_cycle(cycle))} can go round for ever",
+                      how, prefix, at,
                       cycle=cycle)
     end = first if end < 0 else end
     steps = prefix + [int(ss.transition[a]) for a in rest]
@@ -201,9 +209,10 @@ def _reach_end(views: Views, name: str, goal: Mask, arcs: Mask | None, how: str,
     return Result(name, False, "error", head + why, how, steps, end)
 
 
-def _terminates(views: Views, terminates: Terminates, how: str) -> Result:
+def _terminates(views: Views, terminates: Terminates, how: str, can_end: Result) -> Result:
     """Each vehicle's proved worst case bounds the fleet's runs (the module's doc); a
-    vehicle not proved to end is shown by a lasso of the product through its transitions."""
+    vehicle not proved to end is shown by a loop from which no end can be reached
+    (``can_end``'s lasso), a run that gets stuck, or a lasso through its transitions."""
     name = "fleet-terminates"
     fnet = views.fnet
     proofs = {v: terminates(v) for v in fnet.slices}
@@ -213,6 +222,11 @@ def _terminates(views: Views, terminates: Terminates, how: str) -> Result:
         return Result(name, True, "error", "every run of the fleet ends: "
                       + "; ".join(why for _, why in proofs.values()), method)
     ss = views.ss
+    if can_end.status == "fails" and can_end.cycle:  # no end reachable: it never ends
+        return Result(name, False, "error", "some run of the fleet never ends: "
+                      + can_end.message.removeprefix("the fleet can go round for ever: "),
+                      can_end.method, can_end.counterexample, can_end.witness,
+                      cycle=can_end.cycle)
     mine = np.zeros(len(fnet.steps), bool)
     for t, s in enumerate(fnet.steps):
         mine[t] = s.vehicle in unproved

@@ -86,6 +86,8 @@ class FleetVerdict:
         base: dict[str, Any] = {"vehicle": s.vehicle, "text": self.fleet.step_text(t),
                                 "kind": s.kind, "file": None, "line": None, "col": None}
         if s.link is not None and s.kind != "vehicle":
+            base["construct"] = f"channel {s.link.channel}"
+            base["label"] = base["text"].split(": ", 1)[-1]
             base["channel"] = s.link.channel
             base["message"] = s.link.message
             base["receiver"] = s.link.receiver

@@ -119,6 +119,7 @@ def test_auto_takes_the_compositional_route_when_the_product_is_over_budget() ->
     assert small.note == "" and small.markings > 1000
 
 
+@pytest.mark.slow  # a cut search goes on in numba's engine: its first compilation, ~1.5 s
 def test_a_cut_product_decides_nothing_that_holds() -> None:
     verdict = verify_fleet(fleet(), "explicit", max_markings=500)
     statuses = {r.name: r.status for r in verdict.results}
@@ -196,3 +197,25 @@ def shortest_path_to(fnet: object, ss: StateSpace, t: int) -> list[int]:
         path.append(int(ss.parent_transition[row]))
         row = int(ss.parent[row])
     return path[::-1]
+
+
+def test_a_loop_that_only_a_message_ends_is_a_lasso_that_replays() -> None:
+    # the guide may end without sending; the vehicle circles until it hears it
+    circles = """
+            PARALLEL { WHILE { Wait(1 s) } DO { Wait(1 s) } } OR { Receive(guide, release) };
+            Surface()"""
+    f = fleet(ASV_MAY_NOT_SEND, circles, lossy=False, every=False)
+    verdict = verify_fleet(f, "explicit")
+    r = next(r for r in verdict.results if r.name == "fleet-can-end")
+    assert r.status == "fails" and r.cycle, r.message
+    assert r.message.startswith("the fleet can go round for ever: uuv goes round")
+    cycle = verdict.lines(r.cycle)
+    assert all(x.startswith("uuv ") for x in cycle)
+    assert any("Wait(1 s)" in x for x in cycle)
+    prefix = verdict.lines(r.counterexample or [])
+    assert any(x.startswith("asv ") and "Surface()" in x for x in prefix)
+    players = replay(verdict.fleet, (r.counterexample or []) + r.cycle * 3)
+    assert players["uuv"].rules.end_status(players["uuv"].marking) is None
+    # no end can be reached from the loop: some run never ends
+    term = next(r for r in verdict.results if r.name == "fleet-terminates")
+    assert term.status == "fails" and term.cycle == r.cycle
