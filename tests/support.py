@@ -13,8 +13,12 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
+
+if TYPE_CHECKING:
+    from petri.net import Net
 
 REPO = Path(__file__).resolve().parents[1]
 MISSIONS = REPO / "missions"
@@ -26,6 +30,23 @@ def single_missions() -> list[Path]:
     from mcl.fleet import is_fleet
 
     return sorted(p for p in MISSIONS.glob("*.mcl") if not is_fleet(str(p)))
+
+
+def shipped_nets() -> list[tuple[str, Net]]:
+    """The net of every shipped mission and of every vehicle of every shipped fleet, each
+    with its name (``dam_inspection.mcl``, ``mcm.mcl uuv``)."""
+    # loaded here, not at the top: every test imports this module, few need the compiler
+    from mcl.api import compile_file
+    from mcl.fleet import compile_fleet_file, is_fleet
+
+    out: list[tuple[str, Net]] = []
+    for p in sorted(MISSIONS.glob("*.mcl")):
+        if is_fleet(str(p)):
+            fleet = compile_fleet_file(str(p))
+            out += [(f"{p.name} {name}", c.net) for name, c in fleet.vehicles.items()]
+        else:
+            out.append((p.name, compile_file(str(p)).net))
+    return out
 SHARED = REPO.parent / "shared"
 BIN = Path(sys.executable).parent
 

@@ -9,15 +9,15 @@ machinery, with the mission's normal flow from its start to each task.
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import pytest
 
 from diagnostics import Source
 from mcl import tasklib
-from mcl.api import compile_file, compile_source
+from mcl.api import compile_source
 from petri.formats.dot import to_dot
 from petri.net import Action, Net
+from tests.support import shipped_nets
 
 GENERIC = tasklib.load(["generic"])
 NODE = re.compile(r'^  ("(?:[^"\\]|\\.)*"|\w+) \[(.*)\];$')
@@ -126,13 +126,12 @@ def test_in_the_task_view_do_follows_from_catch() -> None:
     assert "task:2:34" in nodes and "task:2:34" in _reachable(edges, "p0")
 
 
-SHIPPED = sorted((Path(__file__).parents[3] / "missions").glob("*.mcl"))
+SHIPPED = shipped_nets()  # each vehicle of a shipped fleet too
 
 
-@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.name)
-def test_the_task_view_of_a_shipped_mission_is_one_connected_flow(path: Path) -> None:
+@pytest.mark.parametrize("name, net", SHIPPED, ids=[name for name, _ in SHIPPED])
+def test_the_task_view_of_a_shipped_mission_is_one_connected_flow(name: str, net: Net) -> None:
     """Issue 21: the task view of the dam mission had places floating on top, unconnected."""
-    net = compile_file(str(path)).net
     nodes, edges = _graph(to_dot(net, "tasks"))
     start = next(n for n, attrs in nodes.items() if 'tooltip="MISSION.begin"' in attrs)
     tasks = {n for n in nodes if n.startswith("task:")}
