@@ -4,6 +4,8 @@
 - :func:`run_mission` (``mission/run.py``): one call runs a compiled mission on a vehicle with
   its time bound, capability check, verification, run log and safe exit, and returns a
   :class:`RunResult`. Several run side by side in one process, one thread each.
+- :func:`run_fleet` (``mission/fleet.py``): a fleet's vehicles on one simulated clock, with
+  their channels between them (``mission/channels.py``), returning a :class:`FleetResult`.
 - :func:`simulated_vehicle` (``mission/simulated.py``): the simulated Ictineu, built from
   Python; :class:`Vehicle` (``mission/vehicle.py``): what a run runs on.
 - :func:`check_capabilities` (``mission/capabilities.py``): is the mission within what the
@@ -25,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from mission.capabilities import check_capabilities, declared_behaviours
     from mission.exits import Exit
+    from mission.fleet import FleetResult, run_fleet
     from mission.limits import max_time, mission_bound
     from mission.handled import Handled
     from mission.run import NotVerified, NoVehicle, RunResult, Stop, run_mission
@@ -37,10 +40,11 @@ HOMES = {  # each public name -> the module that defines it
     "Vehicle": "mission.vehicle", "check_capabilities": "mission.capabilities",
     "declared_behaviours": "mission.capabilities", "max_time": "mission.limits",
     "mission_bound": "mission.limits", "Exit": "mission.exits", "NoVehicle": "mission.run",
-    "Handled": "mission.handled",
+    "Handled": "mission.handled", "run_fleet": "mission.fleet", "FleetResult": "mission.fleet",
 }
-__all__ = ["Exit", "Handled", "NoVehicle", "NotVerified", "RunResult", "Stop", "Vehicle", "check_capabilities",
-           "declared_behaviours", "max_time", "mission_bound", "run_mission", "simulated_vehicle"]
+__all__ = ["Exit", "FleetResult", "Handled", "NoVehicle", "NotVerified", "RunResult", "Stop", "Vehicle", "check_capabilities",
+           "declared_behaviours", "max_time", "mission_bound", "run_fleet", "run_mission",
+           "simulated_vehicle"]
 
 
 def __getattr__(name: str) -> Any:

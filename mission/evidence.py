@@ -30,6 +30,7 @@ HOW_EXITS: dict[str, frozenset[int]] = {
     "signal": frozenset({Exit.UNDECIDED, *range(SIGNAL_BASE + 1, SIGNAL_BASE + 65)}),
     "error": frozenset({Exit.VEHICLE, Exit.INTERNAL}), "refused": frozenset({Exit.INVALID}),
     "no vehicle": frozenset({Exit.NO_VEHICLE}), "log failed": frozenset({Exit.UNDECIDED}),
+    "fleet": frozenset({Exit.UNDECIDED}),  # stopped because another vehicle of its fleet failed
 }
 FAULT = re.compile(r"^[a-z]+@[0-9.eE+-]{1,30}$")  # --inject FAULT@SECONDS
 
@@ -75,6 +76,8 @@ HEADER: dict[str, tuple[bool, str, Callable[[Any], bool]]] = {
                lambda v: _texts(v) and all(_fault(x) for x in v)),
     "max_time": (False, "a positive number of seconds", _seconds),
     "time": (False, "the note on mission time", lambda v: isinstance(v, str)),
+    "fleet": (False, "the fleet's name", lambda v: isinstance(v, str)),  # mission/fleet.py
+    "as": (False, "the vehicle's name in its fleet", lambda v: isinstance(v, str)),
 }
 
 

@@ -54,7 +54,7 @@ from typing import TYPE_CHECKING, Any
 from diagnostics import MclError
 from mcl.analysis.verification import verify_mission
 from mcl.api import Compiled
-from petri.execution.player import MAX_FIRINGS_PER_INSTANT, Player, Record
+from petri.execution.player import MAX_FIRINGS_PER_INSTANT, Order, Player, Record
 from petri.execution.runlog import RunLog, net_digest
 from petri.execution.runner import MissionClock, Outcome, run
 from petri.execution.signing import Signer
@@ -151,7 +151,8 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
                 during: contextlib.AbstractContextManager[Any] | None = None,
                 waiting: Callable[[str, float], None] | None = None,
                 max_firings_per_instant: int = MAX_FIRINGS_PER_INSTANT,
-                signer: Signer | None = None) -> RunResult:
+                signer: Signer | None = None,
+                sender: Callable[[Order], None] | None = None) -> RunResult:
     """Run ``compiled`` on ``vehicle`` to its end (the steps: this module's docstring).
 
     ``log``: the run log's path (None: no log); ``header``: what its header says of the run
@@ -168,7 +169,8 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     connected (``mcl run``'s progress); ``max_firings_per_instant``: past this many firings at one mission instant the player
     stops the mission through its abort (a loop that goes round without time passing: the
     end record's how is ``zeno``, exit 4); ``signer``: the key that signs every line of the
-    log (:mod:`petri.execution.signing`; None: the log is chained, not signed).
+    log (:mod:`petri.execution.signing`; None: the log is chained, not signed); ``sender``:
+    where the mission's ``Send`` actions go (a fleet's channel: :mod:`mission.fleet`).
     Raises :class:`~diagnostics.MclError` when the vehicle cannot run the mission (before
     the first action), :class:`NoVehicle` when no vehicle answered while connecting."""
     limit = time_bound(compiled, max_time)
@@ -185,7 +187,7 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     about = {"mission": name, "file": compiled.source.name, "net": net_digest(compiled.net),
              **(header or {}), "max_time": limit[0], "time": TIME_NOTE}
     play = _Play(compiled, chosen, name, Player(compiled.net,
-                        max_firings_per_instant=max_firings_per_instant),
+                        max_firings_per_instant=max_firings_per_instant, sender=sender),
                  clock if clock is not None else MissionClock())
     with contextlib.ExitStack() as held:
         if during is not None:

@@ -61,6 +61,17 @@ class Summary(Protocol):
     def summary(self) -> dict[str, Any]: ...
 
 
+@runtime_checkable
+class Modem(Protocol):
+    """A vehicle's side of a fleet's channels (docs/FLEET_RUN.md): what it says with a message
+    it sends, what it does with one it hears (a navigator fuses a fix), and where it is (the
+    channel's delay grows with the distance; None: not known)."""
+
+    def payload(self, channel: str, message: str, t: float) -> dict[str, Any]: ...
+    def heard(self, channel: str, message: str, data: dict[str, Any], t: float) -> None: ...
+    def position(self) -> tuple[float, float, float] | None: ...
+
+
 @dataclass
 class Vehicle:
     """The vehicle of one run: the adapter the player runs on and what else it has."""
@@ -72,6 +83,7 @@ class Vehicle:
     status: StatusFeed | None = None
     summary: Summary | None = None
     where: str = ""  # where the vehicle is reached (a URL, an endpoint), for messages
+    modem: Modem | None = None  # its side of a fleet's channels (mission/fleet.py)
 
     @classmethod
     def around(cls, adapter: Adapter) -> Vehicle:
