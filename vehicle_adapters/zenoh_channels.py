@@ -175,9 +175,10 @@ class ZenohCarrier(Generic[M]):
         self._publish_config = publish
         self._subscribe_configs = dict(subscribe or {})
         self.lock = threading.Lock()
-        self._due: list[tuple[float, int, M]] = []  # (delivery time, order, message), a heap
+        self._due: list[tuple[float, int, M, float]] = []  # (time, order, message, delay): a heap
         self._order = 0
-        self.counts = {"sent": 0, "received": 0, "delivered": 0, "lost": 0, "refused": 0}
+        self.counts = {"sent": 0, "received": 0, "delivered": 0, "lost": 0, "dropped": 0,
+                       "undelivered": 0, "refused": 0}
         self._sessions: list[zenoh.Session] = []
         self._declared: list[Any] = []
         self._publishers: dict[str, Any] = {}
@@ -254,21 +255,37 @@ class ZenohCarrier(Generic[M]):
         publisher.put(to_wire(msg))
         with self.lock:
             self.counts["sent"] += 1
-        self.record({"kind": "sent", "channel": msg.channel, "message": msg.message,
-                     "sender": msg.sender, "seq": msg.seq, "t": msg.sent})
+        self.record({"t": msg.sent, "kind": "sent", **fields_of(msg)})
 
     def deliveries(self, receiver: str, until: float) -> list[tuple[float, M]]:
         """The messages due at ``receiver`` (this vehicle) by ``until`` on its clock, each with
-        its delivery time, in order; each is given once."""
+        its delivery time, in order; each is given once, and recorded as delivered."""
         if receiver != self.me:
             raise ValueError(f"this carrier delivers to {self.me}, not {receiver}")
-        due: list[tuple[float, M]] = []
+        due: list[tuple[float, M, float]] = []
         with self.lock:
-            while self._due and self._due[0][0] <= until:
-                t, _, msg = heapq.heappop(self._due)
-                due.append((t, msg))
+            while self._due and self._due[0][0] <= until + 1e-9:
+                t, _, msg, delay = heapq.heappop(self._due)
+                due.append((t, msg, delay))
             self.counts["delivered"] += len(due)
-        return due
+        for t, msg, delay in due:
+            self.record({"t": t, "kind": "delivered", **fields_of(msg), "receiver": self.me,
+                         "delay": round(delay, 6)})
+        return [(t, msg) for t, msg, _ in due]
+
+    def next_due(self) -> float | None:
+        """When the next message received falls due here (None: none is waiting)."""
+        with self.lock:
+            return self._due[0][0] if self._due else None
+
+    def undelivered(self, t: float, why: str) -> None:
+        """This vehicle's run has ended at ``t``: what waits for it is never delivered."""
+        with self.lock:
+            left, self._due = sorted(self._due), []
+            self.counts["undelivered"] += len(left)
+        for at, _, msg, _ in left:
+            self.record({"t": max(t, at), "kind": "undelivered", **fields_of(msg),
+                         "receiver": self.me, "due": round(at, 6), "why": why})
 
     def pending(self) -> int:
         """Messages received and not yet due."""
@@ -289,8 +306,8 @@ class ZenohCarrier(Generic[M]):
                 self.counts["refused"] += 1
             log.warning("fleet %s: %s refused a message on %s: %s", self.fleet, self.me,
                         sample.key_expr, exc)
-            self.record({"kind": "refused", "key": str(sample.key_expr), "why": str(exc),
-                         "at": self.clock()})
+            self.record({"t": self.clock(), "kind": "refused", "key": str(sample.key_expr),
+                         "why": str(exc)})
             return
         self.receive(self.make(**fields))
 
@@ -310,23 +327,41 @@ class ZenohCarrier(Generic[M]):
 
     def receive(self, msg: M) -> float | None:
         """A message arrived now: the channel's model decides its fate; returns its delivery
-        time on this vehicle's clock, or None (lost or dropped: recorded as such)."""
+        time on this vehicle's clock, or None (lost or dropped: recorded at once)."""
         arrived = self.clock()
-        base = {"channel": msg.channel, "message": msg.message, "sender": msg.sender,
-                "seq": msg.seq, "sent": msg.sent, "receiver": self.me, "arrived": arrived}
-        model = self.models.get(msg.channel)
-        at = (model.decide(msg, position_in(msg.data), self.position())
-              if model is not None else msg.sent)
+        fate, at, why = self.judge(msg)
         with self.lock:
             self.counts["received"] += 1
             if at is None:
-                self.counts["lost"] += 1
+                self.counts[fate] += 1
             else:
                 delay = max(0.0, at - msg.sent)
-                heapq.heappush(self._due, (arrived + delay, self._order, msg))
+                heapq.heappush(self._due, (arrived + delay, self._order, msg, delay))
                 self._order += 1
         if at is None:
-            self.record({"kind": "lost", **base})
+            self.record({"t": arrived, "kind": fate, **fields_of(msg), "receiver": self.me,
+                         "why": why})
             return None
-        self.record({"kind": "delivered", **base, "at": arrived + delay, "delay": delay})
         return arrived + delay
+
+    def judge(self, msg: M) -> tuple[str, float | None, str]:
+        """The channel model's word on ``msg`` here: (delivered | lost | dropped, the delivery
+        time on the sender's clock or None, why). A model that can say why a message was not
+        delivered (``judge``, mission/channels.py) is asked that; one that only decides is
+        taken to have lost what it does not deliver."""
+        model = self.models.get(msg.channel)
+        if model is None:
+            return "delivered", msg.sent, "no model: at once"
+        where = (position_in(msg.data), self.position())
+        judge = getattr(model, "judge", None)
+        if callable(judge):
+            fate = judge(msg, *where)
+            return str(fate.fate), fate.at, str(fate.why)
+        at = model.decide(msg, *where)
+        return ("lost", None, "lost") if at is None else ("delivered", at, "")
+
+
+def fields_of(msg: MessageFields) -> dict[str, Any]:
+    """A message's fields as the channel record writes them (data left out: it may be long)."""
+    return {"channel": msg.channel, "message": msg.message, "sender": msg.sender,
+            "seq": msg.seq, "sent": round(msg.sent, 6)}

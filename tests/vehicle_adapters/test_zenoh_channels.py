@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import json
 import math
+import random
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import pytest
@@ -16,6 +17,7 @@ import pytest
 zenoh = pytest.importorskip("zenoh")
 
 from aal.zenoh import close_session, zenoh_config  # noqa: E402
+from mission.channels import ChannelModel, Message  # noqa: E402
 from vehicle_adapters.zenoh_channels import (  # noqa: E402
     ChannelUnreachable, Position, ZenohCarrier, channel_key, from_wire, position_in, to_wire)
 
@@ -28,16 +30,6 @@ class Channel:
     sender: str
     receivers: tuple[str, ...]
     messages: tuple[str, ...]
-
-
-@dataclass(frozen=True)
-class Message:
-    channel: str
-    message: str
-    sender: str
-    seq: int
-    sent: float
-    data: dict[str, Any] = field(default_factory=dict)
 
 
 class Model:
@@ -59,6 +51,20 @@ class Model:
 
 
 GUIDE = Channel("guide", "asv", ("uuv",), ("release", "fix"))
+
+
+@dataclass(frozen=True)
+class LossyGuide:
+    """The guide channel with what mission/channels.py's model reads too."""
+
+    name: str = "guide"
+    sender: str = "asv"
+    receivers: tuple[str, ...] = ("uuv",)
+    messages: tuple[str, ...] = ("release", "fix")
+    delay_min: float = 1.0
+    delay_max: float = 3.0
+    interval: float = 2.0
+    lossy: bool = True
 CHANNELS = {"guide": GUIDE}
 
 
@@ -142,9 +148,10 @@ def test_messages_cross_with_the_receivers_model_applied_on_its_own_clock(vehicl
     assert model.asked == [(s, (0.0, 0.0, 0.0), (3000.0, 0.0, 0.0)) for s in (1, 2, 3)]
     kinds = [(r["kind"], r["seq"]) for r in records]
     assert kinds.count(("sent", 2)) == 1 and ("lost", 2) in kinds
-    assert [r["at"] for r in records if r["kind"] == "delivered"] == [102.0, 102.0]
-    assert receiver.summary() == {"fleet": "mcm", "vehicle": "uuv", "sent": 0,
-                                       "received": 3, "delivered": 2, "lost": 1, "refused": 0}
+    assert [(r["t"], r["delay"]) for r in records if r["kind"] == "delivered"] == [(102.0, 2.0)] * 2
+    assert receiver.summary() == {"fleet": "mcm", "vehicle": "uuv", "sent": 0, "received": 3,
+                                  "delivered": 2, "lost": 1, "dropped": 0, "undelivered": 0,
+                                  "refused": 0}
 
 
 def test_a_message_not_from_the_channels_sender_is_refused(vehicle: str) -> None:
@@ -165,6 +172,41 @@ def test_a_message_not_from_the_channels_sender_is_refused(vehicle: str) -> None
         close_session(intruder)
     assert [r["why"].split(" ")[0] for r in records if r["kind"] == "refused"][:2] == [
         "'uuv'", "guide"]
+
+
+def test_the_missions_model_judges_over_zenoh_as_in_one_process(vehicle: str) -> None:
+    """mission/channels.py's ChannelModel at the receiver: the same fates as in process for
+    the same seed; a message dropped by EVERY or lost is recorded so, and what is still due
+    when the run ends is recorded undelivered."""
+    channel = LossyGuide()
+    sent = [Message("guide", "fix", "asv", i, t, {}) for i, t in enumerate(
+        [0.0, 1.0, 4.0, 8.0, 12.0, 16.0, 20.0, 24.0])]
+    alone = ChannelModel(channel, 0.5, random.Random(9))
+    expected = [alone.judge(m, None, None) for m in sent]
+    assert {f.fate for f in expected} == {"delivered", "lost", "dropped"}
+    clock, records = Clock(), list[dict[str, Any]]()
+    sender: ZenohCarrier[Message] = ZenohCarrier(
+        "mcm", "asv", {"guide": channel}, make=Message, models={}, clock=clock,
+        publish=zenoh_config(vehicle, connect=True), record=records.append)
+    receiver: ZenohCarrier[Message] = ZenohCarrier(
+        "mcm", "uuv", {"guide": channel}, make=Message, clock=clock, record=records.append,
+        models={"guide": ChannelModel(channel, 0.5, random.Random(9))},
+        subscribe={"asv": zenoh_config(vehicle, "client", connect=True)})
+    with receiver, sender:
+        assert sender.wait_matched(budget(0.5))
+        for m in sent:
+            sender.send(m)
+        wait_for(lambda: receiver.summary()["received"] == len(sent))
+        got = receiver.deliveries("uuv", 100.0 + 2.0)
+        receiver.undelivered(102.0, "the run ended")
+    fates = {r["seq"]: r["kind"] for r in records if r["kind"] != "sent"}
+    assert [fates[m.seq].replace("undelivered", "delivered") for m in sent] == [
+        f.fate for f in expected]
+    delays = {r["seq"]: r["delay"] for r in records if r["kind"] == "delivered"}
+    assert all(delays[m.seq] == pytest.approx((f.at or 0.0) - m.sent)
+               for m, f in zip(sent, expected) if m.seq in delays)
+    assert [t for t, _ in got] == sorted(100.0 + f.at - m.sent for m, f in zip(sent, expected)
+                                         if f.at is not None and f.at - m.sent <= 2.0)
 
 
 def test_a_carrier_sends_only_on_its_own_channels(vehicle: str) -> None:
