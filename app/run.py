@@ -47,7 +47,7 @@ from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
 
-from app import arguments, foxglove, vehicles
+from app import arguments, fleet_zenoh, foxglove, vehicles
 from app.guard import guarded
 from app.mclc import OutputError, check_output, unread_pipe
 from app.monitor import task_detail
@@ -105,6 +105,7 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
     r.add_argument("--params", action="append", default=[], metavar="FILE",
                    help="a parameter file: one 'name = value' per line")
     r.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    fleet_zenoh.add_options(r)  # --as NAME, --fleet-vehicle NAME=ENDPOINT
     owned = vehicles.add_options(r)  # each kind's options, in a group of its own
     return r, owned
 
@@ -166,6 +167,9 @@ def _param_texts(overrides: dict[str, Any]) -> dict[str, str]:
 
 
 def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
+    if args.as_ is not None:  # one vehicle of a fleet, its channels over Zenoh
+        return fleet_zenoh.run(args, Signer.load(args.log_key) if args.log_key is not None
+                               else None, _Timeline)
     _check_log(Path(args.log) if args.log else Path("out/runs/MISSION.jsonl"))
     if args.mcap is not None:
         check_output(args.mcap, "--mcap")
