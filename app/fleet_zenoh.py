@@ -32,11 +32,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from aal.messages import ActionMessage, EventMessage
+from aal.messages import ActionMessage, Declaration, EventMessage
 from aal.zenoh import check_endpoint, check_name, keys, payload_text, zenoh_config
 from aal.zenoh_security import Security
 from diagnostics import file_error
+from mcl.api import Compiled
 from mcl.fleet import CompiledFleet, compile_fleet_file
+from mission.capabilities import check_capabilities
 from mission.channels import ChannelModel, ChannelRecord, Message
 from mission.exits import Exit
 from mission.fleet import losses as channel_losses
@@ -63,11 +65,6 @@ def add_options(parser: Any) -> None:
                         metavar="NAME=ENDPOINT",
                         help="with --as: the Zenoh endpoint of another vehicle of the fleet "
                              "that sends on a channel to this one (repeat it)")
-    try:  # a fleet's --log-dir, unless mcl run has it already
-        parser.add_argument("--log-dir", metavar="DIR", default=None,
-                            help="a fleet: the folder of its run logs and channel records")
-    except argparse.ArgumentError:
-        pass
 
 
 def endpoints(fleet: CompiledFleet, me: str, given: list[str]) -> dict[str, str]:
@@ -203,8 +200,7 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
     for d in compiled.warnings:
         print(d.format(), file=sys.stderr)
     player = security(args, endpoint, "player")
-    log_dir = getattr(args, "log_dir", None)
-    folder = Path(log_dir) if log_dir else Path("out/runs") / (
+    folder = Path(args.log_dir) if args.log_dir else Path("out/runs") / (
         f"{Path(args.mission).stem}-{me}-{time.strftime('%Y%m%d-%H%M%S')}")
     by_channel = loss(fleet, args.loss) if loss is not None else 0.0
     record = ChannelRecord(folder / f"channels-{me}.jsonl", {
@@ -235,7 +231,7 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
                       + f" after {MATCH_TIMEOUT:g} s: what is sent before they do is lost",
                       file=sys.stderr)
             result = play(args, compiled, member, zv, endpoint, folder, signer, timeline,
-                          out, fleet.name)
+                          out, fleet)
     except ChannelUnreachable as exc:
         print(f"mcl run: {exc}", file=sys.stderr)
         return Exit.NO_VEHICLE
@@ -290,9 +286,24 @@ def rounded(line: dict[str, Any]) -> dict[str, Any]:
     return {k: round(v, 6) if isinstance(v, float) else v for k, v in line.items()}
 
 
-def play(args: argparse.Namespace, compiled: Any, member: Member, zv: ZenohVehicle,
+class Declares:
+    """The vehicle's own word on what it can do, checked against the mission with the fleet's
+    channels taken out (they carry Send and Receive, not the vehicle); it then says None, so
+    that run_mission does not check again without them."""
+
+    def __init__(self, zv: ZenohVehicle, compiled: Compiled, channels: list[str]) -> None:
+        self.zv, self.compiled, self.channels = zv, compiled, channels
+
+    def declaration(self) -> Declaration | None:
+        said = self.zv.declaration()
+        if said is not None:
+            check_capabilities(self.compiled, said, self.channels)
+        return None
+
+
+def play(args: argparse.Namespace, compiled: Compiled, member: Member, zv: ZenohVehicle,
          endpoint: str, folder: Path, signer: Signer | None, timeline: Callable[..., Any],
-         out: Output, fleet: str) -> RunResult | int:
+         out: Output, fleet: CompiledFleet) -> RunResult | int:
     """The mission run on ``member`` (its signals, its timeline); an exit status when it was
     refused before it started."""
     seq = iter(range(1 << 62))
@@ -304,12 +315,11 @@ def play(args: argparse.Namespace, compiled: Any, member: Member, zv: ZenohVehic
         member.carrier.send(Message(order.behaviour, str(order.params.get("message", "")),
                                     member.name, next(seq), t, data))
 
-    # declares: None, since run_mission's check would take the channels (Send, Receive) for
-    # behaviours the vehicle lacks
-    chosen = Vehicle(member, declares=None, link=zv, status=zv, where=f"zenoh:{endpoint}")
+    chosen = Vehicle(member, declares=Declares(zv, compiled, list(fleet.channels)), link=zv, status=zv,
+                     where=f"zenoh:{endpoint}")
     clock = MissionClock()
     header = {"file": args.mission, "vehicle": args.vehicle, "seed": args.seed,
-              "fleet": fleet, "as": member.name}
+              "fleet": fleet.name, "as": member.name}
     stops = Stops(("SIGINT", "SIGTERM", "SIGHUP"))
     try:
         return run_mission(

@@ -1,6 +1,7 @@
 """``mcl replay``: check that a run log is a legal run of the mission (README, "mcl replay").
 
     mcl replay RUN.jsonl MISSION.mcl [--tasks FILE] [--key PUBLIC.pem]
+    mcl replay DIR FLEET.mcl [--key PUBLIC.pem]   (a fleet's logs: app/fleet_replay.py)
 
 In this order, so that nothing the log names is read before the log is known to be what the
 run wrote: the log's lines (each within a size limit, strict JSON written the run's one way:
@@ -24,17 +25,20 @@ from typing import Any
 
 from diagnostics import MclError
 from mcl.api import Compiled, compile_file
+from mcl.fleet import is_fleet
 from mission.exits import Exit
+from mission.fleet_evidence import RecordProblem
 
 from app.guard import guarded
-from app import arguments
+from app import arguments, fleet_replay
 
 MAX_TASKS_BYTES = 4 * 1024 * 1024  # a task library the log's header names, at most
 
 
 def _parser() -> argparse.ArgumentParser:
     p = arguments.Parser(prog="mcl replay")
-    p.add_argument("log", metavar="RUN.jsonl")
+    p.add_argument("log", metavar="RUN.jsonl", help="a run log; for a fleet, the folder of "
+                   "its logs (mcl run FLEET.mcl --log-dir DIR)")
     p.add_argument("mission", metavar="MISSION.mcl")
     p.add_argument("--tasks", action="append", default=[], metavar="FILE")
     p.add_argument("--key", metavar="PUBLIC.pem", default=None,
@@ -59,6 +63,16 @@ class Refused(Exception):
 
 
 def _replay(args: argparse.Namespace) -> int:
+    if is_fleet(args.mission):  # a fleet's folder of logs: app/fleet_replay.py
+        try:
+            return fleet_replay.replay(args)
+        except RecordProblem as exc:
+            where = exc.path if exc.line is None else f"{exc.path}:{exc.line}"
+            if exc.invalid or exc.line is None:
+                print(f"{where}: error: {exc.reason}", file=sys.stderr)
+                return Exit.INVALID
+            print(f"{where}: not conformant: {exc.reason}")
+            return Exit.FAILED
     try:
         return _checked(args)
     except Refused as exc:

@@ -36,8 +36,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from diagnostics import file_error
 from mcl import values
 from mcl.api import Compiled, compile_file, parse_params
+from mcl.fleet import is_fleet
 from mission.exits import Exit
 from mission.limits import mission_bound
 from mission.progress import TaskProgress
@@ -47,7 +49,7 @@ from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
 
-from app import arguments, fleet_zenoh, foxglove, vehicles
+from app import arguments, fleet_run, fleet_zenoh, foxglove, vehicles
 from app.guard import guarded
 from app.mclc import OutputError, check_output, unread_pipe
 from app.monitor import task_detail
@@ -74,6 +76,13 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
                    help="run the simulated vehicle at wall-clock speed")
     r.add_argument("--log", metavar="FILE", help="run log (JSON Lines); default "
                    "out/runs/MISSION-TIME.jsonl")
+    r.add_argument("--log-dir", metavar="DIR", default=None,
+                   help="a fleet: the folder of its run logs (one per vehicle) and its "
+                        "channel record; default out/runs/FLEET-TIME (docs/FLEET_RUN.md)")
+    r.add_argument("--loss", action="append", default=[], type=fleet_run.loss_option,
+                   metavar="P|CHANNEL=P",
+                   help="a fleet: the probability that a message on a LOSSY channel is "
+                        "lost, for every channel or for one (repeat it); default 0")
     r.add_argument("--max-time", type=_seconds, default=None, metavar="SECONDS",
                    help="abort a mission that has not ended after this much mission time "
                         "(exit 4). Default: the longest the mission can last by its "
@@ -167,9 +176,24 @@ def _param_texts(overrides: dict[str, Any]) -> dict[str, str]:
 
 
 def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
-    if args.as_ is not None:  # one vehicle of a fleet, its channels over Zenoh
-        return fleet_zenoh.run(args, Signer.load(args.log_key) if args.log_key is not None
-                               else None, _Timeline)
+    if is_fleet(args.mission):  # several vehicles and their channels: app/fleet_run.py
+        if args.log_dir:
+            _check_log(Path(args.log_dir) / "channels.jsonl")
+        signer = Signer.load(args.log_key) if args.log_key is not None else None
+        if args.as_ is not None:  # one of them here, its channels over Zenoh
+            return fleet_zenoh.run(args, signer, _Timeline, fleet_run.losses)
+        if args.fleet_vehicle:
+            raise file_error(args.mission, "--fleet-vehicle: only with --as NAME (one "
+                             "vehicle of the fleet over Zenoh)", "add --as NAME, or leave "
+                             "--fleet-vehicle out to run the fleet in one process",
+                             "fleet-option")
+        return fleet_run.run(args, signer, _Timeline)
+    if args.loss or args.log_dir or args.as_ is not None or args.fleet_vehicle:
+        option = ("--loss" if args.loss else "--log-dir" if args.log_dir
+                  else "--as" if args.as_ is not None else "--fleet-vehicle")
+        raise file_error(args.mission, f"{option}: only for a fleet, and this file is a single "
+                         "mission", f"leave {option} out (a fleet file starts with FLEET)",
+                         "fleet-option")
     _check_log(Path(args.log) if args.log else Path("out/runs/MISSION.jsonl"))
     if args.mcap is not None:
         check_output(args.mcap, "--mcap")

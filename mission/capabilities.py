@@ -9,6 +9,8 @@ mission's tasks need, and every parameter they give, must be declared;
 
 from __future__ import annotations
 
+from collections.abc import Collection
+
 from aal.messages import Declaration
 from diagnostics import Diagnostic, MclError, Source
 from mcl import tasklib
@@ -20,9 +22,11 @@ def declared_behaviours(declaration: Declaration) -> tasklib.Library:
     return tasklib.load_sources([Source(declaration.source, declaration.text)])
 
 
-def check_capabilities(compiled: Compiled, declaration: Declaration) -> None:
+def check_capabilities(compiled: Compiled, declaration: Declaration,
+                       channels: Collection[str] = ()) -> None:
     """MclError (exit 2) naming each task call that needs a behaviour or an event the
-    vehicle does not declare, at the call's ``file:line:col``."""
+    vehicle does not declare, at the call's ``file:line:col``. ``channels``: a fleet's
+    channels, which carry Send and Receive, not the vehicle (mission/fleet.py)."""
     library = declared_behaviours(declaration)
     have = library.behaviours
     takes = parameters_taken(library)
@@ -36,8 +40,9 @@ def check_capabilities(compiled: Compiled, declaration: Declaration) -> None:
         form = resolved.form
         needed = [a.behaviour for a in form.start + form.stop]
         needed += [b for b in (form.latch, form.unlatch) if b]
+        needed = [b for b in needed if b not in channels]
         events = [e for e in form.ok + form.fail
-                  if e.partition(".")[0] not in tasklib.BUILTIN_SOURCES]
+                  if e.partition(".")[0] not in (*tasklib.BUILTIN_SOURCES, *channels)]
         for behaviour in dict.fromkeys(needed + [e.partition(".")[0] for e in events]):
             key = (call.span.line, call.span.col, behaviour)
             if behaviour not in have and key not in seen:

@@ -272,7 +272,7 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
                        code="fleet-vehicle")
     by_channel = losses(fleet, loss)
     for name in names:  # refuse before anything is written or sent
-        check_before(fleet.vehicles[name], vehicles[name], verify)
+        check_before(fleet.vehicles[name], vehicles[name], verify, list(fleet.channels))
     folder = Path(log_dir) if log_dir is not None else None
     record = (ChannelRecord(folder / "channels.jsonl", {
         "fleet": fleet.name, "seed": seed, "loss": by_channel, "channels": {
@@ -322,12 +322,13 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
                        record.failure if record is not None else "")
 
 
-def check_before(compiled: Compiled, vehicle: Vehicle, verify: bool) -> None:
+def check_before(compiled: Compiled, vehicle: Vehicle, verify: bool,
+                 channels: list[str]) -> None:
     """A vehicle's mission is refused before the fleet starts: not within what its vehicle
     declares, or not verified (with its receptions as environment events)."""
     said = vehicle.declares.declaration() if vehicle.declares is not None else None
     if said is not None:
-        check_capabilities(compiled, said)
+        check_capabilities(compiled, said, channels)
     if verify:
         verdict = verify_mission(compiled, "auto")
         if not verdict.ok:

@@ -1,5 +1,5 @@
 """A fleet's channels over Zenoh: the carrier of the messages between vehicles' players that run
-in separate processes or machines (docs/ZENOH.md, "Fleets"; fleet_design §6).
+in separate processes or machines (docs/FLEET_ZENOH.md).
 
 Key layout (``<f>`` the fleet's name, ``<c>`` a channel's)::
 

@@ -1,6 +1,6 @@
 """The Zenoh carrier of a fleet's channels, with real Zenoh sessions on loopback in this process:
 a listening peer stands for the sender's vehicle, the sender's carrier connects to it as a peer,
-the receiver's as a client (the routes of docs/ZENOH.md, "Fleets")."""
+the receiver's as a client (the routes of docs/FLEET_ZENOH.md)."""
 
 from __future__ import annotations
 

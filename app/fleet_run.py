@@ -1,0 +1,175 @@
+"""``mcl run FLEET.mcl``: a fleet's vehicles in one process, on one simulated clock
+(docs/FLEET_RUN.md).
+
+    mcl run FLEET.mcl [--loss P | --loss CHANNEL=P ...] [--seed N] [--log-dir DIR]
+                      [--max-time SECONDS] [--quiet] [--no-verify]
+
+Every vehicle of the fleet runs its mission on a simulated vehicle of its own (vehicle ``i``,
+in the fleet's order, gets the seed ``N + i``; the one its task library names in
+:data:`SIMULATORS`, else the simulated Ictineu); the channels between them lose, drop and
+delay messages as :class:`mission.channels.ChannelModel` says, seeded by ``N``. It prints
+each vehicle's timeline (its name before each line), then each vehicle's end, its run log,
+and each channel's figures: sent, delivered, lost, dropped, undelivered and the median delay.
+The exit status is the worst of the vehicles' (docs/EXIT.md). Signals stop every vehicle
+through its mission's abort, as for one mission.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from diagnostics import file_error
+from mcl.fleet import CompiledFleet, compile_fleet_file
+from mission.exits import Exit
+from mission.fleet import FleetResult, run_fleet
+from mission.run import NotVerified
+from mission.vehicle import Vehicle
+from petri.execution.runner import MissionClock
+from petri.execution.signing import Signer
+
+from app.safe_exit import Output, Stops
+
+SEEDS = 2**64  # vehicle i's seed is (N + i) mod 2**64
+# a task library's file stem -> the simulated vehicle that has its behaviours (seed -> vehicle);
+# a vehicle whose library is not here runs on the simulated Ictineu
+SIMULATORS: dict[str, Callable[[int], Vehicle]] = {}
+
+
+def loss_option(text: str) -> tuple[str | None, float]:
+    """``--loss P`` or ``--loss CHANNEL=P``: a probability from 0 to 1, for every LOSSY
+    channel or for the one named."""
+    channel, _, value = text.rpartition("=")
+    try:
+        p = float(value)
+    except ValueError:
+        p = math.nan
+    if not 0.0 <= p <= 1.0:
+        raise argparse.ArgumentTypeError(f"{text[:40]!r}: the loss is a probability from 0 "
+                                         "to 1 (e.g. --loss 0.3 or --loss guide=0.3)")
+    if channel == "" and "=" in text:
+        raise argparse.ArgumentTypeError(f"{text[:40]!r}: name the channel before '='")
+    return (channel or None), p
+
+
+def losses(fleet: CompiledFleet, given: list[tuple[str | None, float]]
+           ) -> float | dict[str, float]:
+    """What ``--loss`` says for ``fleet``: one probability, or one per channel (the others
+    0). A channel the fleet has not got, or one that is not LOSSY, is refused (exit 2)."""
+    if not given:
+        return 0.0
+    every = [p for name, p in given if name is None]
+    named = {name: p for name, p in given if name is not None}
+    if every and named:
+        raise file_error("--loss", "--loss P and --loss CHANNEL=P together: give one or the "
+                         "other", "e.g. --loss 0.3, or --loss guide=0.3", "fleet-loss")
+    for name in named:
+        channel = fleet.channels.get(name)
+        if channel is None:
+            raise file_error("--loss", f"--loss {name}=...: fleet {fleet.name} has no channel "
+                             f"{name!r}", "its channels: " + ", ".join(fleet.channels),
+                             "fleet-loss")
+        if not channel.lossy:
+            raise file_error("--loss", f"--loss {name}=...: channel {name} is not LOSSY, so "
+                             "it loses nothing", f"declare it LOSSY at {channel.origin.where()}"
+                             " to run it with losses", "fleet-loss")
+    if every and not any(c.lossy for c in fleet.channels.values()) and every[-1] > 0:
+        print(f"mcl run: warning: --loss {every[-1]:g}: no channel of fleet {fleet.name} is "
+              "LOSSY, so nothing is lost", file=sys.stderr)
+    return every[-1] if every else named
+
+
+def vehicles_for(fleet: CompiledFleet, seed: int) -> dict[str, Vehicle]:
+    """A simulated vehicle for each of the fleet's vehicles (this module's doc)."""
+    from mission.simulated import simulated_vehicle  # here for start-up speed
+
+    chosen: dict[str, Vehicle] = {}
+    for i, (name, compiled) in enumerate(fleet.vehicles.items()):
+        stems = [Path(u.library).stem for u in compiled.mission.uses]
+        make = next((SIMULATORS[s] for s in stems if s in SIMULATORS), None)
+        own = (seed + i) % SEEDS
+        chosen[name] = make(own) if make is not None else simulated_vehicle(seed=own)
+    return chosen
+
+
+def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[..., Any]) -> int:
+    """``mcl run FLEET.mcl ...`` (options already parsed by app/run.py); ``timeline``: makes
+    one mission's timeline, ``timeline(compiled, clock, out)`` (app/run.py's)."""
+    if args.vehicle != "sim":
+        raise file_error("--vehicle", f"--vehicle {args.vehicle}: a fleet runs in one process "
+                         "on simulated vehicles", "leave --vehicle out", "fleet-vehicle")
+    if args.log is not None:
+        raise file_error("--log", "--log: a fleet writes one run log per vehicle and a "
+                         "channel record", "give a folder with --log-dir DIR", "fleet-log")
+    for option in ("param", "params", "tasks", "inject"):
+        if getattr(args, option):
+            raise file_error(f"--{option}", f"--{option}: not for a fleet (each VEHICLE says "
+                             "its own USES and PARAM)", "leave it out", "fleet-option")
+    fleet = compile_fleet_file(args.mission, require_values=True)
+    for d in fleet.warnings:
+        print(d.format(), file=sys.stderr)
+    loss = losses(fleet, args.loss)
+    folder = Path(args.log_dir) if args.log_dir else Path("out/runs") / (
+        f"{Path(args.mission).stem}-{time.strftime('%Y%m%d-%H%M%S')}")
+    out = Output()
+    width = max(len(n) for n in fleet.vehicles)
+    timelines: dict[str, list[Callable[[Any], None]]] = {}
+    if not args.quiet:
+        timelines = {name: [timeline(compiled, MissionClock(), Named(out, name, width))]
+                     for name, compiled in fleet.vehicles.items()}
+    header = {"file": args.mission, "vehicle": "sim", "seed": args.seed}
+    stops = Stops(("SIGINT", "SIGTERM", "SIGHUP"))
+    try:
+        result = run_fleet(fleet, vehicles_for(fleet, args.seed), loss=loss, seed=args.seed,
+                           log_dir=folder, header=header, max_time=args.max_time,
+                           stop=stops.request, verify=not args.no_verify,
+                           observers=timelines, signer=signer, during=stops)
+    except NotVerified as exc:
+        print(f"{args.mission}: not verified ({', '.join(exc.failed)}): refusing to run it\n"
+              f"  hint: see 'mclc {args.mission}'; --no-verify runs it anyway", file=sys.stderr)
+        return Exit.FAILED
+    finally:
+        stops.restore()
+    summary(args.mission, fleet, result, out)
+    return result.exit
+
+
+class Named:
+    """An output that puts a vehicle's name before each line of its timeline."""
+
+    def __init__(self, out: Output, name: str, width: int) -> None:
+        self.out, self.name, self.width = out, name, width
+
+    @property
+    def closed(self) -> bool:
+        return self.out.closed
+
+    def say(self, text: str) -> None:
+        self.out.say(f"{self.name:<{self.width}} {text}")
+
+
+def summary(mission: str, fleet: CompiledFleet, result: FleetResult, out: Output) -> None:
+    """Each vehicle's end and run log, then each channel's figures."""
+    out.say(f"{mission}: fleet {fleet.name}, {len(result.runs)} vehicles, ended after "
+            f"{result.time:.1f} s of mission time")
+    for name, r in result.runs.items():
+        out.say(f"  {name}: mission {r.mission} ended {r.status.upper()} after {r.time:.1f} s "
+                f"({r.firings} firings)" + (f": {r.reason}" if r.reason else ""))
+        if r.status not in ("ok", "fail") or r.switched_off:
+            out.say(f"    switched off: {', '.join(r.switched_off) or 'nothing was on'}; "
+                    f"{r.confirmed}")
+        out.say(f"    run log: {r.log}")
+    for name, c in result.channels.items():
+        spec = fleet.channels[name]
+        delay = c["median_delay"]
+        out.say(f"  channel {name} ({spec.sender} -> {', '.join(spec.receivers)}): sent "
+                f"{c['sent']}, delivered {c['delivered']}, lost {c['lost']}, dropped "
+                f"{c['dropped']}, undelivered {c['undelivered']}; median delay "
+                + (f"{delay:.2f} s" if delay is not None else "-"))
+    out.say(f"  channel record: {result.record}" + (f" (incomplete: {result.record_failure})"
+                                                     if result.record_failure else ""))
