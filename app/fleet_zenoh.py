@@ -308,8 +308,10 @@ def play(args: argparse.Namespace, compiled: Compiled, member: Member, zv: Zenoh
     refused before it started."""
     seq = iter(range(1 << 62))
 
+    clock = MissionClock()
+
     def send(order: Order) -> None:
-        t = member.now()
+        t = clock.vehicle(order.t)  # the vehicle's clock at the Send, as its log says it
         where = member.position()
         data = {"position": list(where)} if where is not None else {}
         member.carrier.send(Message(order.behaviour, str(order.params.get("message", "")),
@@ -317,7 +319,6 @@ def play(args: argparse.Namespace, compiled: Compiled, member: Member, zv: Zenoh
 
     chosen = Vehicle(member, declares=Declares(zv, compiled, list(fleet.channels)), link=zv, status=zv,
                      where=f"zenoh:{endpoint}")
-    clock = MissionClock()
     header = {"file": args.mission, "vehicle": args.vehicle, "seed": args.seed,
               "fleet": fleet.name, "as": member.name}
     stops = Stops(("SIGINT", "SIGTERM", "SIGHUP"))

@@ -159,6 +159,11 @@ def test_the_fleet_over_zenoh_ends_as_in_one_process(fleet_file: Path, tmp_path:
     assert [r["message"] for r in sent] == [r["message"] for r in heard] == ["go", "done"]
     assert all(1.0 <= r["delay"] <= 3.0 for r in heard)
     assert "channels: sent 2;" in out_l and "delivered 2," in out_f
+    replay = subprocess.run([sys.executable, "-m", "app.mcl", "replay", str(logs),
+                             str(fleet_file)], capture_output=True, text=True,
+                            timeout=budget(3), cwd=REPO, env=subprocess_env(),
+                            stdin=subprocess.DEVNULL)
+    assert replay.returncode == 0 and "(run apart) conforms" in replay.stdout, replay.stderr
 
 
 def test_a_vehicle_killed_mid_run_leaves_the_other_to_end_safely(fleet_file: Path,
