@@ -80,6 +80,7 @@ bench: $(EXTRAS)
 	$(BIN)/python bench/bench_mclc.py
 	$(BIN)/python bench/bench_lsp.py
 	$(BIN)/python bench/bench_timed.py
+	$(BIN)/python bench/bench_fleet.py
 	$(BIN)/python bench/bench_missions.py
 	$(BIN)/python bench/bench_player.py
 	$(BIN)/python bench/bench_vehicle.py

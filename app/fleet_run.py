@@ -33,12 +33,24 @@ from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
 
-from app.safe_exit import Output, Stops
+from app.safe_exit import Output, ReportCut, Stops
 
 SEEDS = 2**64  # vehicle i's seed is (N + i) mod 2**64
 # a task library's file stem -> the simulated vehicle that has its behaviours (seed -> vehicle);
 # a vehicle whose library is not here runs on the simulated Ictineu
 SIMULATORS: dict[str, Callable[[int], Vehicle]] = {}
+
+
+def add_options(parser: argparse.ArgumentParser) -> None:
+    """The options of ``mcl run`` that only a fleet takes."""
+    parser.add_argument("--log-dir", metavar="DIR", default=None,
+                        help="a fleet: the folder of its run logs (one per vehicle) and its "
+                             "channel record; default out/runs/FLEET-TIME "
+                             "(docs/FLEET_RUN.md)")
+    parser.add_argument("--loss", action="append", default=[], type=loss_option,
+                        metavar="P|CHANNEL=P",
+                        help="a fleet: the probability that a message on a LOSSY channel is "
+                             "lost, for every channel or for one (repeat it); default 0")
 
 
 def loss_option(text: str) -> tuple[str | None, float]:
@@ -110,6 +122,10 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
         if getattr(args, option):
             raise file_error(f"--{option}", f"--{option}: not for a fleet (each VEHICLE says "
                              "its own USES and PARAM)", "leave it out", "fleet-option")
+    for option in ("mcap", "foxglove", "realtime"):
+        if getattr(args, option):
+            raise file_error(f"--{option}", f"--{option}: not for a fleet yet (one mission's "
+                             "run only)", "leave it out", "fleet-option")
     fleet = compile_fleet_file(args.mission, require_values=True)
     for d in fleet.warnings:
         print(d.format(), file=sys.stderr)
@@ -130,12 +146,19 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
                            stop=stops.request, verify=not args.no_verify,
                            observers=timelines, signer=signer, during=stops)
     except NotVerified as exc:
+        stops.restore()
         print(f"{args.mission}: not verified ({', '.join(exc.failed)}): refusing to run it\n"
               f"  hint: see 'mclc {args.mission}'; --no-verify runs it anyway", file=sys.stderr)
         return Exit.FAILED
+    except BaseException:
+        stops.restore()
+        raise
+    try:  # a signal now only cuts the report short: the end records stand
+        summary(args.mission, fleet, result, out)
+    except ReportCut as cut:
+        print(cut.line(), file=sys.stderr)
     finally:
         stops.restore()
-    summary(args.mission, fleet, result, out)
     return result.exit
 
 

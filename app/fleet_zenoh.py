@@ -36,6 +36,7 @@ from aal.messages import ActionMessage, Declaration, EventMessage
 from aal.zenoh import check_endpoint, check_name, keys, payload_text, zenoh_config
 from aal.zenoh_security import Security
 from diagnostics import file_error
+from mcl.analysis.fleet_verification import verify_fleet
 from mcl.api import Compiled
 from mcl.fleet import CompiledFleet, compile_fleet_file
 from mission.capabilities import check_capabilities
@@ -199,6 +200,14 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
     compiled = fleet.vehicles[me]
     for d in compiled.warnings:
         print(d.format(), file=sys.stderr)
+    if not args.no_verify:  # the fleet as a whole, as in one process (mission/fleet.py)
+        fails = [r.name for r in verify_fleet(fleet).results
+                 if r.status == "fails" and r.severity == "error"]
+        if fails:
+            print(f"{args.mission}: fleet {fleet.name} not verified ({', '.join(fails)}): "
+                  f"refusing to run it\n  hint: see 'mclc {args.mission}'; --no-verify runs "
+                  "it anyway", file=sys.stderr)
+            return Exit.FAILED
     player = security(args, endpoint, "player")
     folder = Path(args.log_dir) if args.log_dir else Path("out/runs") / (
         f"{Path(args.mission).stem}-{me}-{time.strftime('%Y%m%d-%H%M%S')}")

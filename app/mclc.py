@@ -21,8 +21,11 @@ from typing import Any
 
 from diagnostics import Diagnostic, MclError, Span
 from mcl.api import Compiled, compile_file, parse_params
+from mcl.fleet import is_fleet
 
 from app.arguments import memory_size
+from app.fleet_check import check_fleet
+from app.mission_report import SEVERITY, diag_json, verify_and_report
 from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
 from app.version import VersionAction
 from app import arguments
@@ -30,7 +33,6 @@ from mission.exits import Exit  # the exit statuses of every command: docs/EXIT.
 
 # With several files, mclc exits with the worst status: internal, invalid, failed, undecided,
 # ok (docs/EXIT.md).
-SEVERITY = [Exit.OK, Exit.UNDECIDED, Exit.FAILED, Exit.INVALID, Exit.INTERNAL]  # worst last
 PNML_FILES = (".pnml", ".tgz")  # a Petri net: PNML, or a Model Checking Contest archive
 
 
@@ -67,13 +69,16 @@ def _parser(prog: str = "mclc") -> argparse.ArgumentParser:
                    default=None, help="report format on standard output (default text): "
                    "json, JUnit XML, SARIF 2.1.0, or GitHub Actions annotations")
     p.add_argument("--no-verify", action="store_true", help="compile only; do not verify")
-    p.add_argument("--method", choices=["auto", "explicit", "structural"], default="auto",
+    p.add_argument("--method", choices=["auto", "explicit", "structural", "compositional"],
+                   default="auto",
                    help="explicit: enumerate every reachable marking (exact, with firing "
                         "sequences); structural: templates verified with generic children plus "
                         "outcome and static analyses of the syntax tree (for missions too large "
                         "to enumerate); auto (default): explicit when its estimated memory fits "
                         "1 GiB, completed by structural if the exploration is cut "
-                        "(mcl/analysis/verification.py)")
+                        "(mcl/analysis/verification.py); compositional (a fleet only): each "
+                        "vehicle proved alone against its channels, the product never built "
+                        "(docs/METHODS.md, Fleets)")
     p.add_argument("--max-markings", type=_positive, default=5_000_000, metavar="N",
                    help="explicit route: stop after N markings; what the cut exploration "
                         "cannot decide is reported undecided (exit 4) (default 5,000,000)")
@@ -231,58 +236,31 @@ def _main(argv: list[str] | None, so_far: list[Exit], prog: str) -> int:
     elif fmt in ("junit", "sarif", "github"):
         from app.reports import formats
 
-        print(getattr(formats, fmt)(reports))
+        print(getattr(formats, fmt)(formats.flat(reports)))
     sys.stdout.flush()
     return worst
 
 
 def _invalid(path: str, diagnostics: list[Diagnostic]) -> dict[str, Any]:
     return {"file": path, "status": "invalid",
-            "diagnostics": [_diag_json(d) for d in diagnostics]}
-
-
-def _diag_json(d: Diagnostic) -> dict[str, Any]:
-    span = d.span
-    return {"severity": d.severity, "message": d.message, "hint": d.hint, "code": d.code,
-            "file": span.file if span else None, "line": span.line if span else None,
-            "col": span.col if span else None}
+            "diagnostics": [diag_json(d) for d in diagnostics]}
 
 
 def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str, Any]]:
     if args.graphml is not None:
         check_output(args.graphml, "--graphml")
+    if is_fleet(path):
+        return check_fleet(path, args, fmt)
+    if args.method == "compositional":
+        raise MclError("--method compositional proves a fleet, and this file is not one",
+                       span=Span.of_file(path), hint="use auto, explicit or structural for "
+                       "a mission or a net", code="fleet-option")
     if path.lower().endswith(PNML_FILES):
         return _pnml(path, args, fmt)
     params = parse_params(args.param, args.params)
     compiled = compile_file(path, args.tasks or None, params)
     _write_outputs(compiled, args)
-    report = _summary(compiled)
-    status = Exit.OK
-    if not args.no_verify:
-        from mcl.analysis.verification import verify_mission
-
-        verdict = verify_mission(compiled, args.method, max_markings=args.max_markings,
-                                 max_bytes=args.max_memory, keep_graph=args.graphml is not None)
-        if args.graphml is not None:
-            _write_graph(path, args.graphml, compiled.net, verdict.space,
-                         "--method auto took the structural route")
-        report["verification"] = verdict.to_json()
-        status = (Exit.OK if verdict.ok else Exit.FAILED if verdict.failed
-                  else Exit.UNDECIDED)
-        report["status"] = ("verified" if verdict.ok else "property-fails" if verdict.failed
-                            else "undecided")
-    from app.reports.duration import check as check_durations
-
-    bounds = check_durations(compiled.checked, args.limits)
-    report["duration"] = bounds.report
-    if bounds.failures:
-        status = max(status, Exit.FAILED, key=SEVERITY.index)
-        report["status"] = "property-fails"
-    if fmt == "text":
-        _print_text(compiled, report, args)
-        if args.limits.asked:
-            print("\n".join([f"  FAIL {f}" for f in bounds.failures] + bounds.lines))
-    return status, report
+    return verify_and_report(compiled, args, fmt, _write_graph)
 
 
 def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:
@@ -360,36 +338,6 @@ def _write_pnml(net: Any, path: str) -> None:
     from petri.formats.pnml import write_pnml
 
     write_pnml(net, path)
-
-
-def _summary(compiled: Compiled) -> dict[str, Any]:
-    m = compiled.mission
-    tasks = [{"task": c.name, "line": c.span.line, "col": c.span.col}
-             for c in m.calls()]
-    return {"file": compiled.source.name, "mission": m.name, "status": "compiled",
-            "tasks": len(tasks), "task_calls": tasks,
-            "places": len(compiled.net.places), "transitions": len(compiled.net.transitions),
-            "arcs": compiled.net.arc_count(),
-            "parameters": {"set": sorted(compiled.checked.params),
-                           "unset": compiled.checked.unset},
-            "diagnostics": [_diag_json(d) for d in compiled.warnings]}
-
-
-def _print_text(compiled: Compiled, report: dict[str, Any], args: argparse.Namespace) -> None:
-    for d in compiled.warnings:
-        print(d.format(), file=sys.stderr)
-    name = compiled.name
-    print(f"{compiled.source.name}: mission {name}: {report['tasks']} task calls, "
-          f"{report['places']} places, {report['transitions']} transitions")
-    for flag, what in ((args.dot, "full net"), (args.dot_tasks, "task view"),
-                       (args.pnml, "PNML"), (args.net_json, "net JSON"),
-                       (args.graphml, "reachability graph")):
-        if flag:
-            print(f"  wrote {what} to {flag}")
-    if "verification" in report:
-        from app.reports.text import verification_text
-
-        print(verification_text(report["verification"]))
 
 
 if __name__ == "__main__":

@@ -76,13 +76,7 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
                    help="run the simulated vehicle at wall-clock speed")
     r.add_argument("--log", metavar="FILE", help="run log (JSON Lines); default "
                    "out/runs/MISSION-TIME.jsonl")
-    r.add_argument("--log-dir", metavar="DIR", default=None,
-                   help="a fleet: the folder of its run logs (one per vehicle) and its "
-                        "channel record; default out/runs/FLEET-TIME (docs/FLEET_RUN.md)")
-    r.add_argument("--loss", action="append", default=[], type=fleet_run.loss_option,
-                   metavar="P|CHANNEL=P",
-                   help="a fleet: the probability that a message on a LOSSY channel is "
-                        "lost, for every channel or for one (repeat it); default 0")
+    fleet_run.add_options(r)  # --log-dir, --loss: a fleet's
     r.add_argument("--max-time", type=_seconds, default=None, metavar="SECONDS",
                    help="abort a mission that has not ended after this much mission time "
                         "(exit 4). Default: the longest the mission can last by its "
@@ -137,20 +131,20 @@ def _seconds(text: str) -> float:
     return value
 
 
-def _check_log(path: Path) -> None:
+def _check_log(path: Path, option: str = "--log") -> None:
     """The run log's path, checked before the run: its folder is made if missing."""
     if path.is_dir():
-        raise OutputError(str(path), "--log", "is a directory")
+        raise OutputError(str(path), option, "is a directory")
     if unread_pipe(path):
-        raise OutputError(str(path), "--log", "a named pipe nobody reads: writing would wait "
+        raise OutputError(str(path), option, "a named pipe nobody reads: writing would wait "
                           "for ever")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise OutputError(str(path), "--log", f"cannot make its folder: "
+        raise OutputError(str(path), option, f"cannot make its folder: "
                           f"{exc.strerror or exc}") from None
     if not os.access(path.parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        raise OutputError(str(path), "--log", "permission denied")
+        raise OutputError(str(path), option, "permission denied")
 
 
 def _warn_late_faults(compiled: Compiled, injected: list[str], limit: float | None) -> None:
@@ -178,7 +172,7 @@ def _param_texts(overrides: dict[str, Any]) -> dict[str, str]:
 def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
     if is_fleet(args.mission):  # several vehicles and their channels: app/fleet_run.py
         if args.log_dir:
-            _check_log(Path(args.log_dir) / "channels.jsonl")
+            _check_log(Path(args.log_dir) / "channels.jsonl", "--log-dir")
         signer = Signer.load(args.log_key) if args.log_key is not None else None
         if args.as_ is not None:  # one of them here, its channels over Zenoh
             return fleet_zenoh.run(args, signer, _Timeline, fleet_run.losses)

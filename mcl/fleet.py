@@ -131,6 +131,21 @@ def compile_fleet_source(source: Source, params: Params | None = None,
 
 def compile_fleet(fleet: ast.Fleet, source: Source, params: Params | None = None,
                   require_values: bool = False) -> CompiledFleet:
+    checked = check_fleet(fleet, source, params, require_values)
+    vehicles = {}
+    for name, c in checked.items():
+        net = compiler.compile_mission(c)
+        net.name = name
+        vehicles[name] = Compiled(c.mission, c, net, source)
+    return CompiledFleet(fleet.name, source, vehicles,
+                         {c.name.name: _channel(c, source) for c in fleet.channels})
+
+
+def check_fleet(fleet: ast.Fleet, source: Source, params: Params | None = None,
+                require_values: bool = False) -> dict[str, checker.Checked]:
+    """Check a parsed fleet: its declarations, then each vehicle's mission against its own
+    task library with Send and Receive known. Raise one MclError with every error of every
+    vehicle; each vehicle's warnings stay in its ``Checked.diagnostics``."""
     problems = declaration_problems(fleet, source)
     if problems:
         raise MclError(sorted(problems, key=_order))
@@ -158,13 +173,7 @@ def compile_fleet(fleet: ast.Fleet, source: Source, params: Params | None = None
         errors.extend(unbounded_waits(checked[name], channels))
     if errors:
         raise MclError(sorted(errors, key=_order))
-    vehicles = {}
-    for name, c in checked.items():
-        net = compiler.compile_mission(c)
-        net.name = name
-        vehicles[name] = Compiled(c.mission, c, net, source)
-    return CompiledFleet(fleet.name, source, vehicles,
-                         {n: _channel(c, source) for n, c in channels.items()})
+    return checked
 
 
 def _order(d: Diagnostic) -> tuple[int, int, int]:

@@ -13,6 +13,9 @@ the writer task libraries share (mcl/layout.py): only the blanks between them ch
 - one space between tokens except after ``(`` ``[`` and before ``,`` ``;`` ``)`` ``]`` and a
   call's ``(``; a line break the author put after ``,`` ``(`` ``[`` or before ``)`` ``]``
   inside a value or a call is kept (long lists), at one more level per open bracket;
+- a fleet: ``FLEET name {``, then each CHANNEL and VEHICLE one level in, a vehicle laid out as
+  a file is (its USES, PARAM and MISSION one level further); a CHANNEL on one line when it
+  fits, else its MESSAGES on the next line, one level in;
 - at most one blank line where the author left one or more, none after ``{`` or before ``}``;
 - comments where they were: on their own line at the level of what follows, or at the end of
   the line, the ``//`` comments ending a run of lines aligned two spaces past the longest code;
@@ -20,6 +23,8 @@ the writer task libraries share (mcl/layout.py): only the blanks between them ch
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 from lark import Token, Tree
 
@@ -36,27 +41,29 @@ from mcl.layout import (
     start_of,
     tokens_of,
 )
-from mcl.parser import parse
+from mcl.parser import parse_unit
 
 # The shared writer's names, importable from here too (mcl.formatter.WIDTH, ...).
 __all__ = ["CLOSING", "INDENT", "OPENING", "WIDTH", "Layout", "format_source", "format_text",
            "lexed", "spaced", "tokens_of"]
 
 CONDITION_OF = {"if_then_else", "while_do"}  # constructs whose first block is a condition
+MISSIONS = {"mission", "vehicle_mission"}  # a file's mission, a fleet vehicle's
 
 
 def format_source(source: Source) -> str:
-    """The canonical layout of a mission; an :class:`MclError` if it does not parse."""
-    parse(source)  # the parser's friendly errors for text that is not MCL
+    """The canonical layout of a mission or a fleet; an :class:`MclError` if it does not
+    parse."""
+    parse_unit(source)  # the parser's friendly errors for text that is not MCL
     text = source.text.replace("\r\n", "\n")  # the layout's lines end in '\n' alone
     tree, comments = parse_with_comments("mcl.lark", "start", text)
     return Layout(text, tree, comments).text()
 
 
 def lexed(source: Source) -> list[Token]:
-    """The tokens of a mission and its comments (``COMMENT``, ``BLOCK_COMMENT``), in source
-    order; an :class:`MclError` if it does not parse."""
-    parse(source)
+    """The tokens of a mission (or a fleet) and its comments (``COMMENT``,
+    ``BLOCK_COMMENT``), in source order; an :class:`MclError` if it does not parse."""
+    parse_unit(source)
     tree, comments = parse_with_comments("mcl.lark", "start", source.text)
     return sorted([*tokens_of(tree), *comments], key=start_of)
 
@@ -73,16 +80,67 @@ class Layout(TokenWriter):
         self.start(self.tree)
 
     def start(self, tree: Tree[Token]) -> None:
-        headers = [c for c in tree.children if isinstance(c, Tree) and c.data != "mission"]
+        last = tree.children[-1]
+        if isinstance(last, Tree) and last.data == "fleet":  # the parser refuses headers here
+            self.fleet(last)
+            return
+        self.unit([c for c in tree.children if isinstance(c, Tree)])
+
+    def unit(self, parts: list[Tree[Token]]) -> None:
+        """USES and PARAM lines, then the mission: a file's, or a fleet vehicle's."""
+        headers = [c for c in parts if c.data not in MISSIONS]
         pads = self._param_pads(headers)
-        for child in tree.children:
-            if not isinstance(child, Tree):
-                continue
+        for child in parts:
             self.newline()
-            if child.data == "mission":
+            if child.data in MISSIONS:
                 self.mission(child)
             else:
                 self.header(child, pads.get(id(child), 0))
+
+    # -- fleets ------------------------------------------------------------------------
+    def fleet(self, tree: Tree[Token]) -> None:
+        """``FLEET name {``, each channel and vehicle on its own lines one level in, ``}``."""
+        self.braced(tree, self._fleet_items)
+
+    def _fleet_items(self, parts: list[Tree[Token]]) -> None:
+        for tree in parts:
+            self.newline()
+            if tree.data == "channel":
+                self.channel(tree)
+            else:
+                self.braced(tree, self.unit)
+
+    def braced(self, tree: Tree[Token], inner: Callable[[list[Tree[Token]]], None]) -> None:
+        """A construct whose head and '{' come first, its parts one level in, '}' last."""
+        close = tree.children[-1]
+        assert isinstance(close, Token)
+        parts = [c for c in tree.children if isinstance(c, Tree)]
+        for t in tree.children:
+            if isinstance(t, Token) and t is not close:
+                self.tok(t)
+        self.depth += 1
+        inner(parts)
+        self.leading(start_of(close), INDENT * self.depth)
+        self.depth -= 1
+        self.newline()
+        self.tok(close)
+
+    def channel(self, tree: Tree[Token]) -> None:
+        """A CHANNEL on one line when it fits, else its MESSAGES on the next, one level in."""
+        flat = self.flat(tree)
+        fits = flat is not None and self._fits(len(flat))
+        for child in tree.children:
+            if child is None:
+                continue
+            if isinstance(child, Tree) and child.data == "messages" and not fits:
+                self.depth += 1
+                self.newline()
+                for t in tokens_of(child):
+                    self.tok(t)
+                self.depth -= 1
+                continue
+            for t in tokens_of(child):
+                self.tok(t)
 
     def _param_pads(self, headers: list[Tree[Token]]) -> dict[int, int]:
         """The padding after each PARAM's name that aligns the '=' of a run of PARAM lines."""

@@ -42,6 +42,7 @@ from typing import Any, Protocol
 
 from aal.messages import ActionMessage, EventMessage
 from diagnostics import MclError
+from mcl.analysis.fleet_verification import verify_fleet
 from mcl.analysis.verification import verify_mission
 from mcl.api import Compiled
 from petri.execution.player import Order
@@ -57,6 +58,7 @@ from mission.channels import (
     Position,
 )
 from mission.exits import Exit
+from mission.logwriter import LogUnwritable
 from mission.run import NotVerified, RunResult, Stop, run_mission
 from mission.vehicle import Vehicle
 
@@ -150,7 +152,10 @@ class FleetAdapter:
         self.senders = senders  # the vehicles that send on a channel to this one
         self.modem = modem
         self.seq = 0  # the events given to the runner, renumbered in order
-        self.stack = getattr(inner, "stack", None)
+        # when its simulated vehicle next raises an event (None: it cannot say; its runner's
+        # wait is then its next happening)
+        self.peek: Callable[[], float | None] | None = getattr(
+            getattr(inner, "stack", None), "next_time", None)
 
     def __enter__(self) -> FleetAdapter:
         self.inner.__enter__()
@@ -173,7 +178,7 @@ class FleetAdapter:
     def next_time(self, until: float) -> float:
         """This vehicle's next happening: ``until``, its vehicle's next event, a message."""
         times = [until]
-        nxt = self.stack.next_time() if self.stack is not None else None
+        nxt = self.peek() if self.peek is not None else None
         if nxt is not None:
             times.append(nxt)
         due = self.carrier.next_due(self.name)
@@ -263,23 +268,31 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
     or by channel name; ``seed``: the channels' random stream; ``log_dir``: a run log per
     vehicle (``NAME.jsonl``) and the channel record (``channels.jsonl``) go there;
     ``observers``: each vehicle's extra observers (a timeline); the rest as
-    :func:`mission.run_mission`. Raises :class:`NotVerified` or a capability refusal before
+    :func:`mission.run_mission`. Raises :class:`NotVerified` (a vehicle's mission not verified
+    alone with its receptions as environment events, or a fleet property proved false; one
+    the proof leaves undecided does not stop the run) or a capability refusal before
     anything runs."""
     names = list(fleet.vehicles)
     missing = [n for n in names if n not in vehicles]
     if missing:
         raise MclError(f"no vehicle given for {missing[0]} of fleet {fleet.name}",
                        code="fleet-vehicle")
+    wall = [n for n in names if not getattr(vehicles[n].adapter, "simulated", False)]
+    if wall:
+        raise MclError(f"vehicle {wall[0]} of fleet {fleet.name} is not simulated: a fleet "
+                       "in one process runs on simulated vehicles, on one simulated clock",
+                       code="fleet-vehicle")
     by_channel = losses(fleet, loss)
     for name in names:  # refuse before anything is written or sent
         check_before(fleet.vehicles[name], vehicles[name], verify, list(fleet.channels))
+    if verify:  # the fleet as a whole: a property proved false is refused
+        fails = [r.name for r in verify_fleet(fleet).results
+                 if r.status == "fails" and r.severity == "error"]
+        if fails:
+            raise NotVerified([f"fleet {fleet.name}: {name}" for name in fails])
     folder = Path(log_dir) if log_dir is not None else None
-    record = (ChannelRecord(folder / "channels.jsonl", {
-        "fleet": fleet.name, "seed": seed, "loss": by_channel, "channels": {
-            c.name: {"sender": c.sender, "receivers": list(c.receivers),
-                     "delay": [c.delay_min, c.delay_max], "interval": c.interval,
-                     "lossy": c.lossy} for c in fleet.channels.values()}})
-              if folder is not None else None)
+    record = open_record(folder / "channels.jsonl", fleet, seed, by_channel) \
+        if folder is not None else None
     rng = random.Random(seed)
     models = {name: ChannelModel(c, by_channel[name], random.Random(rng.getrandbits(64)))
               for name, c in fleet.channels.items()}
@@ -310,16 +323,30 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
         for thread in threads:
             while thread.is_alive():
                 thread.join(0.2)  # the main thread stays free for signal handlers
-    end = max((r.time for r in runs.values()), default=0.0)
-    for name in names:
-        carrier.undelivered(name, end, "the fleet's run ended")
-    if record is not None:
-        record.close(end, "every vehicle's run ended")
+        end = max((r.time for r in runs.values()), default=0.0)  # (still ``during``: a
+        for name in names:  # signal now is a request nobody reads, not an interruption)
+            carrier.undelivered(name, end, "the fleet's run ended")
+        if record is not None:
+            record.close(end, "every vehicle's run ended")
     if errors:
         raise next(iter(errors.values()))
     return FleetResult(fleet.name, {n: runs[n] for n in names}, carrier.summary(),
                        record.path if record is not None else None,
                        record.failure if record is not None else "")
+
+
+def open_record(path: Path, fleet: FleetSpec, seed: int, loss: dict[str, float]
+                ) -> ChannelRecord:
+    """The channel record, its header written: the fleet, the seed, the losses and the
+    channels' declarations; one that cannot be written is :class:`LogUnwritable`."""
+    try:
+        return ChannelRecord(path, {
+            "fleet": fleet.name, "seed": seed, "loss": loss, "channels": {
+                c.name: {"sender": c.sender, "receivers": list(c.receivers),
+                         "delay": [c.delay_min, c.delay_max], "interval": c.interval,
+                         "lossy": c.lossy} for c in fleet.channels.values()}})
+    except OSError as exc:
+        raise LogUnwritable(path, exc) from None
 
 
 def check_before(compiled: Compiled, vehicle: Vehicle, verify: bool,

@@ -18,6 +18,13 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 MISSIONS = REPO / "missions"
+
+
+def single_missions() -> list[Path]:
+    """The shipped single-vehicle missions, sorted (fleet files, FLEET ..., are not)."""
+    from mcl.fleet import is_fleet  # the fleet module is needed only by tests that ask
+
+    return sorted(p for p in MISSIONS.glob("*.mcl") if not is_fleet(str(p)))
 SHARED = REPO.parent / "shared"
 BIN = Path(sys.executable).parent
 

@@ -16,6 +16,7 @@ from importlib import resources
 from diagnostics import Diagnostic, MclError, Source, Span
 from mcl import ast, checker, parser, tasklib
 from mcl.api import library_of
+from mcl.fleet import check_fleet, is_fleet
 
 
 @dataclass
@@ -29,6 +30,7 @@ class Document:
     library: tasklib.Library | None = None
     checked: checker.Checked | None = None
     diagnostics: list[Diagnostic] = field(default_factory=list)
+    fleet: ast.Fleet | None = None  # a fleet file (FLEET ...): checked, never proved here
 
     @property
     def ok(self) -> bool:
@@ -44,6 +46,8 @@ def analyse(path: str, text: str, version: int | None = None) -> Document:
     if path.endswith(".tasks"):
         return analyse_library(doc)
     try:
+        if is_fleet(doc.source):  # a fleet: every vehicle checked, no proofs here
+            return analyse_fleet(doc)
         doc.mission = parser.parse(doc.source)
         doc.library = library_of(doc.mission, doc.source)
         doc.checked = checker.check_mission(doc.mission, doc.library, doc.source)
@@ -58,6 +62,17 @@ def analyse(path: str, text: str, version: int | None = None) -> Document:
             "error", f"internal error: {type(exc).__name__}: {exc}", Span(path, 1, 1),
             hint="this is a bug in mcl; mclc --debug on the file shows where",
             code="internal-error")]
+    return doc
+
+
+def analyse_fleet(doc: Document) -> Document:
+    """A fleet file: parsed, then every vehicle checked (mcl/fleet.py); its errors, or every
+    vehicle's warnings, are the document's diagnostics (the caller catches the errors)."""
+    unit = parser.parse_unit(doc.source)
+    assert isinstance(unit, ast.Fleet)
+    doc.fleet = unit
+    checked = check_fleet(unit, doc.source)
+    doc.diagnostics = [d for c in checked.values() for d in c.diagnostics]
     return doc
 
 

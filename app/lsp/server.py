@@ -193,7 +193,7 @@ def formatting(doc: Document) -> list[types.TextEdit]:
     as one edit of the whole document; none for a text that does not parse (its errors are
     the diagnostics)."""
     library = doc.path.endswith(".tasks")
-    if doc.mission is None and not library:
+    if doc.mission is None and doc.fleet is None and not library:
         return []
     try:
         text = format_library_source(doc.source) if library else format_source(doc.source)

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
+from app.reports.fleet import fleet_entry
 from app.reports.rules import docs_uri, rule
 
 NOT_ACTIONABLE = {"no-dead-transitions"}  # for a mission: template paths it cannot take
@@ -100,14 +101,27 @@ def github(reports: list[dict[str, Any]]) -> str:
             lines.append(f"::{kind} file={p['file']},line={p['line']},col={p['col']},"
                          f"title=mclc {p['rule']}::{esc(p['message'])}")
         status = report.get("status")
-        lines.append(f"{report['file']}: {status}")
+        lines.append(f"{_suite(report)}: {status}")
     return "\n".join(lines)
+
+
+def _suite(report: dict[str, Any]) -> str:
+    """A report's name: its file, and a fleet's vehicle after it (``mcm.mcl uuv``)."""
+    vehicle = report.get("vehicle")
+    return str(report["file"]) + (f" {vehicle}" if vehicle else "")
+
+
+def flat(reports: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The reports of missions: a fleet's report (``vehicles``) gives one per vehicle, then
+    one for the fleet's own properties."""
+    return [r for report in reports
+            for r in (report.get("vehicles") or [report]) + fleet_entry(report)]
 
 
 def junit(reports: list[dict[str, Any]]) -> str:
     suites = ET.Element("testsuites", name="mclc")
     for report in reports:
-        suite = ET.SubElement(suites, "testsuite", name=report["file"])
+        suite = ET.SubElement(suites, "testsuite", name=_suite(report))
         cases = 0
         failures = 0
         errors = 0
@@ -120,7 +134,7 @@ def junit(reports: list[dict[str, Any]]) -> str:
             cases, failures, errors = 1, int(tag == "failure"), int(tag == "error")
         for p in report.get("verification", {}).get("properties", []):
             cases += 1
-            case = ET.SubElement(suite, "testcase", classname=report["file"],
+            case = ET.SubElement(suite, "testcase", classname=_suite(report),
                                  name=p["property"])
             if p["holds"]:
                 continue
@@ -141,7 +155,7 @@ def junit(reports: list[dict[str, Any]]) -> str:
             if key not in duration:
                 continue
             cases += 1
-            case = ET.SubElement(suite, "testcase", classname=report["file"], name=key)
+            case = ET.SubElement(suite, "testcase", classname=_suite(report), name=key)
             for p in _duration_problems(report):
                 if p["rule"] == key:
                     failures += 1

@@ -244,3 +244,20 @@ def test_monitor_and_vehicle_refuse_a_bad_fleet_option(fleet_file: Path) -> None
                                 stdin=subprocess.DEVNULL)
         assert result.returncode == 2 and said in result.stderr, result.stderr
         assert "Traceback" not in result.stderr
+
+
+def test_a_fleet_that_can_hang_is_refused_before_any_vehicle_is_reached(tmp_path: Path) -> None:
+    """The fleet is proved as a whole, as in one process: here the follower waits for ever for
+    a message the leader never sends (its own mission alone may hear it)."""
+    hang = tmp_path / "hang.mcl"
+    hang.write_text(FLEET.replace("Send(orders, go);", "").replace(
+        "IF { Receive(orders, go, timeout = 1 min) }", "IF { Receive(orders, go) }")
+        .replace("LOSSY", ""), encoding="utf-8")
+    result = subprocess.run(
+        [sys.executable, "-m", "app.mcl", "run", str(hang), "--as", "follower", "--vehicle",
+         "zenoh:tcp/127.0.0.1:9", "--fleet-vehicle", "leader=tcp/127.0.0.1:9"],
+        capture_output=True, text=True, timeout=budget(5), cwd=REPO, env=subprocess_env(),
+        stdin=subprocess.DEVNULL)
+    assert result.returncode == 1, result.stderr
+    assert "fleet pair not verified (" in result.stderr and "refusing" in result.stderr
+    assert "waiting for the vehicle" not in result.stderr  # refused before connecting

@@ -60,6 +60,7 @@ def test_a_tampered_fleet_log_is_not_conformant(tmp_path: Path,
     (["--log", "x.jsonl"], "a fleet writes one run log per vehicle"),
     (["--vehicle", "mavlink:udpin:127.0.0.1:14550"], "a fleet runs in one process"),
     (["--param", "x=1"], "not for a fleet"),
+    (["--realtime"], "not for a fleet yet"),
 ])
 def test_a_bad_fleet_option_is_one_line_and_exit_2(
         args: list[str], says: str, capsys: pytest.CaptureFixture[str]) -> None:
@@ -82,3 +83,12 @@ def test_replay_of_a_fleet_needs_its_folder(tmp_path: Path,
     (tmp_path / "leader.jsonl").write_text(json.dumps({"kind": "header"}) + "\n", "ascii")
     assert replay.main([str(tmp_path / "leader.jsonl"), str(PAIR)]) == 2
     assert "not a folder" in capsys.readouterr().err
+
+
+def test_a_log_dir_that_cannot_be_made_is_one_line_and_exit_2(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("", "ascii")
+    assert run.main([str(PAIR), "--log-dir", str(blocker / "logs")]) == 2
+    err = capsys.readouterr().err
+    assert "(--log-dir): cannot make its folder" in err and "Traceback" not in err

@@ -32,6 +32,9 @@ INTERNAL = {
                           "line at the log's line, exit 1 or 2",
     "app.view.command.Refused": "mcl view's refusal of a log, caught in the command itself: "
                                 "one line, exit 2",
+    "mcl.analysis.fleet_replay.ReplayError": "a fleet counterexample the players cannot "
+                                             "follow: a bug of the verifier, raised to the "
+                                             "test that replays it, never to a user",
     "petri.execution.runlog._Refused": "a value json's reader must not take (a duplicate key, "
                                        "a number out of range), caught by the reader of the "
                                        "line and told as a LogError at its line",

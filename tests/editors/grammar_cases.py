@@ -18,9 +18,10 @@ from lark import Lark, Token
 
 from diagnostics import Source
 from mcl.formatter import lexed
+from tests.support import single_missions
 
 REPO = Path(__file__).resolve().parents[2]
-SHIPPED_MISSIONS = sorted((REPO / "missions").glob("*.mcl"))
+SHIPPED_MISSIONS = single_missions()
 SHIPPED_LIBRARIES = sorted([*(REPO / "mcl" / "tasks").glob("*.tasks"),
                             *(REPO / "missions").glob("*.tasks")])
 CONTROL = {"TRY", "CATCH", "DO", "PARALLEL", "AND", "OR", "IF", "THEN", "ELSE", "WHILE"}

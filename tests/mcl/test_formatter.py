@@ -20,7 +20,7 @@ from mcl import printer
 from mcl.formatter import WIDTH, format_text
 from mcl.parser import parse
 from tests import strategies as S
-from tests.support import MISSIONS
+from tests.support import single_missions
 
 COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/", re.S)
 
@@ -121,7 +121,7 @@ def test_text_that_does_not_parse_is_the_parser_error() -> None:
         format_text("MISSION { A(); }")
 
 
-SHIPPED = sorted(MISSIONS.glob("*.mcl"))
+SHIPPED = single_missions()
 
 
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.name)

@@ -18,10 +18,10 @@ from mcl import ast, parser, printer
 from mcl.api import compile_file
 from diagnostics import Source
 from mcl.analysis.verification import verify_mission
-from tests.support import MISSIONS, cli
+from tests.support import MISSIONS, cli, single_missions
 
 GOLDEN = Path(__file__).parents[1] / "golden"
-FILES = sorted(MISSIONS.glob("*.mcl"))
+FILES = single_missions()
 
 
 def _summary(path: Path) -> dict[str, object]:

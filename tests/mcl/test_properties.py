@@ -29,7 +29,7 @@ from mcl.parser import parse
 from petri.net import Net
 from petri.verification.properties import verify
 from tests import strategies as S
-from tests.support import GENERIC_TASKS, MISSIONS, cli, write
+from tests.support import GENERIC_TASKS, MISSIONS, cli, single_missions, write
 
 # A profile for this file only (registered, never loaded: other test files keep theirs).
 # No derandomize: failures go to Hypothesis' example database and are replayed first.
@@ -47,7 +47,7 @@ def examples(n: int) -> int:
 
 
 GENERIC = tasklib.load_sources([Source("generic.tasks", GENERIC_TASKS)])
-MISSION_FILES = sorted(MISSIONS.glob("*.mcl"))
+MISSION_FILES = single_missions()
 STRUCTURAL = ("one-safe", "no-deadlock", "proper-completion", "stop-safe")
 # a WHILE whose condition cannot fail (e.g. WHILE { Now() } DO { A() }) never ends: then
 # terminates (and no-zeno, for a loop of instant tasks) must fail with a lasso round a WHILE

@@ -35,7 +35,7 @@ from mcl.timers import Timer, timers
 from mcl.values import Unresolved, evaluate
 from petri.net import FAIL, OK
 from tests import strategies as S
-from tests.support import MISSIONS
+from tests.support import single_missions
 
 INF = math.inf
 # Tasks with every kind of timer: a declared fail timeout, a declared ok timeout, a timeout
@@ -177,7 +177,7 @@ def test_zero_second_timers_end_a_call_before_any_event() -> None:
 
 
 # -- the shipped missions and random ones -----------------------------------------------------
-@pytest.mark.parametrize("path", sorted(MISSIONS.glob("*.mcl")), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", single_missions(), ids=lambda p: p.name)
 def test_the_three_readers_agree_on_each_shipped_mission(path: object) -> None:
     compiled = compile_file(str(path))
     assert agree(compiled) > 0

@@ -8,19 +8,24 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import pytest
 
+from diagnostics import MclError
 from mcl.fleet import CompiledFleet, compile_fleet_file
+from mission import fleet as fleet_module
 from mission.fleet import run_fleet
 from mission.fleet_evidence import problem, read_record
 from mission.limits import mission_bound
-from mission.run import Stop
+from mission.run import NotVerified, Stop
 from mission.simulated import simulated_vehicle
 from mission.vehicle import Vehicle
 from petri.execution.replay import check
+from petri.verification.verdict import Result
 from petri.execution.runlog import read_log, verify
+from tests.mcl.analysis import fleet_missions
 from tests.support import REPO
 from vehicle.scripted import ScriptedVehicle, parse_script
 from vehicle_adapters.inprocess import InProcess
@@ -225,3 +230,31 @@ def test_the_payload_travels_the_delay_grows_with_distance_and_the_modem_hears_i
                                                                          0.0, 0.0)
     assert t == pytest.approx(0.5 + 3000.0 / 1500.0)  # latency + travel: 2.5 s, in 1 .. 3
     assert leader.got == []  # one way
+
+
+def test_a_vehicle_that_is_not_simulated_is_refused_before_anything_runs(
+        tmp_path: Path) -> None:
+    fleet = pair()
+    vehicles = fleet_vehicles(fleet)
+    vehicles["follower"] = Vehicle(Failing(vehicles["follower"].adapter))
+    vehicles["follower"].adapter.simulated = False  # type: ignore[attr-defined]
+    with pytest.raises(MclError, match="follower of fleet pair is not simulated"):
+        run_fleet(fleet, vehicles, log_dir=tmp_path)
+    assert list(tmp_path.iterdir()) == []  # nothing written
+
+
+def test_a_fleet_whose_proof_fails_is_refused_before_anything_runs(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each vehicle verified alone over-approximates the fleet, so a fleet whose vehicles
+    pass alone rarely fails as a whole; the refusal is checked on a verdict that fails."""
+    fleet = pair()
+    failing = Result("fleet-no-deadlock", False, "error", "a vehicle waits for ever", "test")
+    monkeypatch.setattr(fleet_module, "verify_fleet",
+                        lambda f: SimpleNamespace(results=[failing]))
+    with pytest.raises(NotVerified, match="fleet pair: fleet-no-deadlock"):
+        run_fleet(fleet, scripted(fleet), log_dir=tmp_path)
+    assert list(tmp_path.iterdir()) == []  # nothing written
+    monkeypatch.undo()
+    good = fleet_missions.fleet()  # paper 003's shape, proved: it runs
+    result = run_fleet(good, scripted(good), loss=1.0, log_dir=tmp_path)
+    assert all(r.status == "ok" for r in result.runs.values())

@@ -31,6 +31,7 @@ class Chan:
     delay_max: float = 3.0
     interval: float = 2.0
     lossy: bool = True
+    messages: tuple[str, ...] = ("fix",)
 
 
 def msg(seq: int, sent: float, message: str = "fix") -> Message:

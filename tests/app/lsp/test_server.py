@@ -27,9 +27,10 @@ from pytest_lsp import ClientServerConfig, LanguageClient, client_capabilities
 from app.lsp.diagnostics import NOT_ACTIONABLE
 from app.lsp.server import PROVED
 from app.reports.formats import problems
+from tests.support import single_missions
 
 ROOT = Path(__file__).resolve().parents[3]
-MISSIONS = sorted((ROOT / "missions").glob("*.mcl"))
+MISSIONS = single_missions()
 DAM = ROOT / "missions" / "dam_inspection.mcl"
 SEVERITY = {types.DiagnosticSeverity.Error: "error", types.DiagnosticSeverity.Warning: "warning"}
 CLASH = """PARAM a = (0, 0, 1, 0 deg);

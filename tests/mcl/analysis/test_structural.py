@@ -18,7 +18,7 @@ from diagnostics import Source
 from mcl.tasklib import load_sources
 from petri.net import Origin
 from mcl.analysis.verification import verify_mission
-from tests.support import MISSIONS
+from tests.support import single_missions
 
 DOF_TASKS = """
 behaviour Mx  drives x     events ok, fail;
@@ -100,7 +100,7 @@ def test_structural_misses_no_violation(body: ast.Block) -> None:
 
 @pytest.mark.slow
 def test_structural_agrees_with_explicit_on_the_shipped_missions() -> None:
-    for path in sorted(MISSIONS.glob("*.mcl")):
+    for path in single_missions():
         compiled = compile_source(Source(str(path), path.read_text()))
         explicit = {r.name: r.status for r in verify_mission(compiled, "explicit").results}
         static = {r.name: r.status for r in structural.analyse(compiled.checked).results}

@@ -33,7 +33,7 @@ from petri.verification.reachability import explore
 from petri.semantics import MISSION_ABORT, Semantics
 from petri.verification.timed import explore_timed, timed_refutes
 from tests import strategies as S
-from tests.support import MISSIONS
+from tests.support import MISSIONS, single_missions
 
 
 def marking(net: Net, *names: str) -> list[int]:
@@ -292,7 +292,7 @@ def test_the_player_with_any_event_timings_stays_in_the_timed_model(
 
 
 # -- one firing rule: the timed model reads the player's Semantics ---------------------------
-SHIPPED = sorted(MISSIONS.glob("*.mcl"))
+SHIPPED = single_missions()
 
 
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.stem)

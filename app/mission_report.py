@@ -1,0 +1,98 @@
+"""The report ``mclc`` gives of one compiled mission (a file's, or a fleet vehicle's): its
+summary, its verification, its proved durations, as JSON and as text.
+
+Its statuses are those of every command (``mission.exits.Exit``, docs/EXIT.md); with several
+verdicts, the worst (:data:`SEVERITY`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable
+from typing import Any
+
+from diagnostics import Diagnostic
+from mcl.api import Compiled
+from petri.net import Net
+
+from mission.exits import Exit
+
+SEVERITY = [Exit.OK, Exit.UNDECIDED, Exit.FAILED, Exit.INVALID, Exit.INTERNAL]  # worst last
+GraphWriter = Callable[[str, str, Net, Any, str], None]  # mclc's --graphml writer
+
+
+def verify_and_report(compiled: Compiled, args: argparse.Namespace, fmt: str,
+                      write_graph: GraphWriter | None = None,
+                      title: str | None = None) -> tuple[Exit, dict[str, Any]]:
+    """Verify a compiled mission as ``args`` ask (``--no-verify``, ``--method``, limits) and
+    report it; in text, print it under ``title`` (default ``FILE: mission NAME``)."""
+    report = summary(compiled)
+    status = Exit.OK
+    if not args.no_verify:
+        # loaded here, not at the top: mclc starts faster when it only compiles
+        from mcl.analysis.verification import verify_mission
+
+        verdict = verify_mission(compiled, args.method, max_markings=args.max_markings,
+                                 max_bytes=args.max_memory, keep_graph=args.graphml is not None)
+        if args.graphml is not None and write_graph is not None:
+            write_graph(compiled.source.name, args.graphml, compiled.net, verdict.space,
+                        "--method auto took the structural route")
+        report["verification"] = verdict.to_json()
+        status = (Exit.OK if verdict.ok else Exit.FAILED if verdict.failed
+                  else Exit.UNDECIDED)
+        report["status"] = ("verified" if verdict.ok else "property-fails" if verdict.failed
+                            else "undecided")
+    from app.reports.duration import check as check_durations  # start-up speed, as above
+
+    bounds = check_durations(compiled.checked, args.limits)
+    report["duration"] = bounds.report
+    if bounds.failures:
+        status = max(status, Exit.FAILED, key=SEVERITY.index)
+        report["status"] = "property-fails"
+    if fmt == "text":
+        print_text(compiled, report, args, title)
+        if args.limits.asked:
+            print("\n".join([f"  FAIL {f}" for f in bounds.failures] + bounds.lines))
+    return status, report
+
+
+def summary(compiled: Compiled) -> dict[str, Any]:
+    """What a compiled mission is: its task calls, its net's size, its parameters and its
+    warnings."""
+    m = compiled.mission
+    tasks = [{"task": c.name, "line": c.span.line, "col": c.span.col}
+             for c in m.calls()]
+    return {"file": compiled.source.name, "mission": m.name, "status": "compiled",
+            "tasks": len(tasks), "task_calls": tasks,
+            "places": len(compiled.net.places), "transitions": len(compiled.net.transitions),
+            "arcs": compiled.net.arc_count(),
+            "parameters": {"set": sorted(compiled.checked.params),
+                           "unset": compiled.checked.unset},
+            "diagnostics": [diag_json(d) for d in compiled.warnings]}
+
+
+def print_text(compiled: Compiled, report: dict[str, Any], args: argparse.Namespace,
+               title: str | None = None) -> None:
+    for d in compiled.warnings:
+        print(d.format(), file=sys.stderr)
+    head = title or f"{compiled.source.name}: mission {compiled.name}"
+    print(f"{head}: {report['tasks']} task calls, "
+          f"{report['places']} places, {report['transitions']} transitions")
+    for flag, what in ((args.dot, "full net"), (args.dot_tasks, "task view"),
+                       (args.pnml, "PNML"), (args.net_json, "net JSON"),
+                       (args.graphml, "reachability graph")):
+        if flag:
+            print(f"  wrote {what} to {flag}")
+    if "verification" in report:
+        from app.reports.text import verification_text  # start-up speed, as above
+
+        print(verification_text(report["verification"]))
+
+
+def diag_json(d: Diagnostic) -> dict[str, Any]:
+    """A diagnostic in mclc's JSON report."""
+    span = d.span
+    return {"severity": d.severity, "message": d.message, "hint": d.hint, "code": d.code,
+            "file": span.file if span else None, "line": span.line if span else None,
+            "col": span.col if span else None}
