@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -39,6 +40,9 @@ ACTION_KEYS = ["mcl/*/aal/action"]
 STATUS_KEYS = ["mcl/*/mission/status"]
 PLAYER_TOKEN_KEYS = ["mcl/*/alive/player/**"]  # mcl/<v>/alive/player/<run>
 ALL_KEYS = ["mcl/**"]
+# A fleet's channels (vehicle_adapters/zenoh_channels.py): mcl/fleet/<fleet>/channel/<channel>;
+# on a vehicle, its player may put on the channels its vehicle sends on, and on no other.
+CHANNEL_KEY = re.compile(r"mcl/fleet/[A-Za-z0-9_.-]{1,64}/channel/[A-Za-z0-9_.-]{1,64}")
 
 @dataclass(frozen=True)
 class Security:
@@ -47,7 +51,8 @@ class Security:
     ``user``/``password``: what a player or observer presents. ``users_file``/``users``: the
     vehicle's dictionary and the names in it. ``tls_*``: PEM files (the CA that signs every
     certificate, this side's certificate and private key). ``player_user``/``player_cn``: on
-    the vehicle, the one identity allowed to put actions.
+    the vehicle, the one identity allowed to put actions. ``channels``: on the vehicle of a
+    fleet, the keys of the channels it sends on, where its player (and nobody else) may put.
     """
 
     user: str | None = None
@@ -59,6 +64,7 @@ class Security:
     tls_cert: Path | None = None
     tls_key: Path | None = None
     player_cn: str = DEFAULT_PLAYER
+    channels: tuple[str, ...] = ()
 
     @property
     def usrpwd(self) -> bool:
@@ -77,10 +83,15 @@ def for_role(role: str, endpoint: str, *, user: str | None = None,
              password_file: str | None = None, users_file: str | None = None,
              player_user: str | None = None, player_cn: str | None = None,
              tls_ca: str | None = None, tls_cert: str | None = None,
-             tls_key: str | None = None) -> Security:
+             tls_key: str | None = None, channels: tuple[str, ...] = ()) -> Security:
     """The Security of ``role`` on ``endpoint`` these settings describe, every file read and
-    checked; raises ValueError with a clear message (naming the command-line option)."""
+    checked; raises ValueError with a clear message (naming the command-line option).
+    ``channels``: the vehicle's, the keys of the fleet channels its player may put on."""
     _check_role(role)
+    for channel in channels:
+        if role != "vehicle" or not CHANNEL_KEY.fullmatch(channel):
+            raise ValueError(f"{channel!r}: not a fleet channel a vehicle's player may put on "
+                             "(mcl/fleet/FLEET/channel/CHANNEL, on the vehicle)")
     tls = _tls_files(tls_ca, tls_cert, tls_key)
     if endpoint.startswith("tls/") and not tls:
         raise ValueError(f"{endpoint}: a TLS endpoint: give --tls-ca, --tls-cert and "
@@ -104,7 +115,7 @@ def for_role(role: str, endpoint: str, *, user: str | None = None,
         users_path = Path(users_file).resolve() if users_file else None
         return Security(users_file=users_path, users=users,
                         player_user=player_user, tls_ca=ca, tls_cert=cert, tls_key=key,
-                        player_cn=player_cn)
+                        player_cn=player_cn, channels=tuple(channels))
     password = None
     if user is not None:
         user = _name(user, "--user")
@@ -305,7 +316,9 @@ def access_control(security: Security) -> dict[str, Any]:
     vehicle (the player: actions, status, its token, answers to status queries; readers:
     subscriptions, liveliness subscriptions, status queries); the ``egress`` rule lets the
     vehicle's own publications, token and declarations out, and what it routes between the
-    player and a monitor connected as a client (status, queries and replies).
+    player and a monitor connected as a client (status, queries and replies). In a fleet, the
+    player also puts on the channels its vehicle sends on (``channels``), which the vehicle
+    routes to the receivers' carriers, its clients (vehicle_adapters/zenoh_channels.py).
     """
     player: dict[str, Any] = {"id": "player"}
     readers: dict[str, Any] = {"id": "readers"}
@@ -320,6 +333,8 @@ def access_control(security: Security) -> dict[str, Any]:
         _rule("player answers status queries", "ingress", ["declare_queryable", "reply"],
               STATUS_KEYS),
         _rule("player's token", "ingress", ["liveliness_token"], PLAYER_TOKEN_KEYS),
+        *([_rule("player puts on its channels", "ingress", ["put"], list(security.channels))]
+          if security.channels else []),
         _rule("readers subscribe", "ingress",
               ["declare_subscriber", "declare_liveliness_subscriber", "liveliness_query"],
               ALL_KEYS),
@@ -329,14 +344,15 @@ def access_control(security: Security) -> dict[str, Any]:
                "liveliness_token", "declare_liveliness_subscriber", "liveliness_query"],
               ALL_KEYS),
     ]
+    mine = 4 if security.channels else 3  # the player's rules come first
     return {
         "enabled": True,
         "default_permission": "deny",
         "rules": rules,
         "subjects": [player, readers],
         "policies": [
-            {"id": "player", "rules": [r["id"] for r in rules[:3]], "subjects": ["player"]},
-            {"id": "readers", "rules": [r["id"] for r in rules[3:]], "subjects": ["readers"]},
+            {"id": "player", "rules": [r["id"] for r in rules[:mine]], "subjects": ["player"]},
+            {"id": "readers", "rules": [r["id"] for r in rules[mine:]], "subjects": ["readers"]},
         ],
     }
 

@@ -20,6 +20,7 @@ from typing import Any
 from mcl.fleet import CompiledFleet, compile_fleet_file
 from mission.exits import Exit
 from mission.fleet_evidence import RecordProblem, problem, read_record
+from mission.fleet_evidence_apart import is_apart, problem_apart, read_records
 
 RECORD = "channels.jsonl"
 
@@ -59,6 +60,8 @@ def replay(args: argparse.Namespace) -> int:
             raise RecordProblem(path, records[-1]["_line"], why)
         logs[name] = records
         told.append(f"{name} {result.firings} firings in {result.records} records")
+    if is_apart(folder, list(fleet.vehicles)):  # run apart over Zenoh: a record each
+        return replay_apart(args, fleet, folder, logs, told, established)
     record_path = folder / RECORD
     if not record_path.is_file():
         raise RecordProblem(record_path, None, "no channel record", invalid=True)
@@ -79,3 +82,21 @@ def fleet_header(header: dict[str, Any], fleet: CompiledFleet, name: str) -> str
         return (f"the log is not of vehicle {name} of fleet {fleet.name} (its header says "
                 f"{str(header.get('as'))[:40]!r} of {str(header.get('fleet'))[:40]!r})")
     return None
+
+
+def replay_apart(args: argparse.Namespace, fleet: CompiledFleet, folder: Path,
+                 logs: dict[str, list[dict[str, Any]]], told: list[str], established: str
+                 ) -> int:
+    """The logs of a fleet run apart, each vehicle with its own channel record
+    (mission/fleet_evidence_apart.py, docs/FLEET_ZENOH.md)."""
+    wrong = problem_apart(fleet, folder, logs)
+    if wrong is not None:
+        raise wrong
+    kinds = [r["kind"] for rec in read_records(folder, fleet.name, list(logs)).values()
+             for r in rec]
+    print(f"{folder}: fleet {fleet.name} (run apart) conforms to {args.mission}: "
+          f"{'; '.join(told)}; channels: {kinds.count('sent')} sent, "
+          f"{kinds.count('delivered')} delivered, {kinds.count('lost')} lost, "
+          f"{kinds.count('dropped')} dropped, {kinds.count('refused')} refused; logs: "
+          f"{established}")
+    return Exit.OK

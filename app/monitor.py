@@ -25,11 +25,12 @@ import sys
 import threading
 import time
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, TextIO
+from typing import TYPE_CHECKING, Any, Protocol, TextIO
 
 from diagnostics import MclError
 from mission.exits import Exit
-from app import arguments
+from app import arguments, zenoh_options
+from app.monitor_fleet import fleet_vehicles, follow, monitor_fleet, open_session
 
 if TYPE_CHECKING:
     from mission.foxglove_live import LiveView
@@ -221,7 +222,20 @@ def _deg(radians: Any) -> float:
     return math.degrees(float(radians or 0.0))
 
 
-def watch(view: View, until_end: bool, timeout: float | None, plain: bool,
+class Watched(Protocol):
+    """What the drawing loop reads: one vehicle's :class:`View`, or a fleet's
+    (app/monitor_fleet.py)."""
+
+    changed: threading.Event
+
+    @property
+    def vehicle_alive(self) -> bool | None: ...
+    def ended(self) -> str | None: ...
+    def line(self) -> str: ...
+    def screen(self, width: int = 80) -> list[str]: ...
+
+
+def watch(view: Watched, until_end: bool, timeout: float | None, plain: bool,
           out: TextIO, stop: threading.Event) -> int:
     """The drawing loop: bounded by ``stop``, the mission's end (``until_end``) and
     ``timeout`` wall seconds."""
@@ -253,43 +267,28 @@ def watch(view: View, until_end: bool, timeout: float | None, plain: bool,
     return Exit.OK
 
 
-def _open(zenoh: Any, config: Any, endpoint: str, timeout: float | None,
-          stop: threading.Event) -> Any:
-    """Open the client session, retrying while the vehicle is not there yet (bounded by
-    ``timeout`` and ``stop``); None if it never came."""
-    from aal.zenoh import zenoh_error
-
-    deadline = time.monotonic() + timeout if timeout else None
-    said = False
-    while not stop.is_set():
-        try:
-            return zenoh.open(config)
-        except zenoh.ZError as exc:
-            if not said:
-                print(f"mcl monitor: waiting for the vehicle at {endpoint} "
-                      f"({zenoh_error(exc)})",
-                      file=sys.stderr, flush=True)
-                said = True
-        if deadline is not None and time.monotonic() >= deadline:
-            print(f"mcl monitor: no vehicle at {endpoint} within {timeout:g} s",
-                  file=sys.stderr)
-            return None
-        stop.wait(0.5)
-    return None
-
-
 def _check_options(args: argparse.Namespace) -> str | None:
     from aal.zenoh import option_error
 
     if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
         return f"--timeout {args.timeout:g}: error: must be a positive number of seconds"
+    if args.fleet_vehicle:
+        if args.foxglove:
+            return "--foxglove: error: not with --fleet-vehicle (it serves one vehicle)"
+        vehicles = fleet_vehicles(args.fleet_vehicle)
+        if isinstance(vehicles, str):
+            return vehicles
+        for endpoint in vehicles.values():  # the security options, for each endpoint
+            try:
+                zenoh_options.from_args(
+                    argparse.Namespace(**{**vars(args), "zenoh": endpoint}), "observer")
+            except ValueError as exc:
+                return f"mcl monitor: error: {exc}"
     return option_error(args.zenoh, args.name)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     from aal.zenoh import DEFAULT_ENDPOINT
-
-    from app import zenoh_options
 
     p = arguments.Parser(prog="mcl monitor",
                                 description="Watch a mission and its vehicle over Zenoh.")
@@ -309,6 +308,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="also serve what the monitor hears to Foxglove (its WebSocket "
                         "protocol, foxglove.sdk.v1): the mission's status and the navigator's "
                         "pose; needs the optional extra mcl-auv[foxglove] (docs/MCAP.md)")
+    p.add_argument("--fleet-vehicle", action="append", default=[], metavar="NAME=ENDPOINT",
+                   help="watch every vehicle of a fleet, each at its endpoint (repeat it; "
+                        "instead of --zenoh and --name), and the messages on the fleet's "
+                        "channels (docs/FLEET_ZENOH.md)")
     zenoh_options.add_arguments(p, "observer")
     args = p.parse_args(argv)
     try:
@@ -349,37 +352,24 @@ def _live(where: str | None) -> LiveView | str | None:
 
 def _monitor(args: argparse.Namespace, security: Any, live: LiveView | None) -> int:
     """Watch over Zenoh until the end, the timeout or a signal."""
-    import zenoh
+    from aal.zenoh import close_session, zenoh_config
 
-    from aal.zenoh import close_session, keys, payload_text, zenoh_config
-
+    if args.fleet_vehicle:  # every vehicle of a fleet
+        return monitor_fleet(args, View, watch)
     view = View(args.name, args.zenoh)
     if live is not None:
         view.forward = live
-    k = keys(args.name)
     stop = threading.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop.set())
-    session = _open(zenoh, zenoh_config(args.zenoh, "client", connect=True,
+    session = open_session(zenoh_config(args.zenoh, "client", connect=True,
                                         security=security, role="observer",
                                         scouting=args.scouting),
-                    args.zenoh, args.timeout, stop)
+                           args.zenoh, args.timeout, stop)
     if session is None:
         return Exit.UNDECIDED if not stop.is_set() else Exit.OK
     try:
-        prefix = k["telemetry"] + "/"
-        entities = [
-            session.declare_subscriber(k["status"],
-                                       lambda s: view.on_status(payload_text(s))),
-            session.declare_subscriber(prefix + "*", lambda s: view.on_telemetry(
-                str(s.key_expr)[len(prefix):], payload_text(s))),
-            session.liveliness().declare_subscriber(
-                k["alive"] + "/**", lambda s: view.on_alive(
-                    str(s.key_expr), s.kind == zenoh.SampleKind.PUT), history=True),
-        ]
-        for reply in session.get(k["status"], timeout=1.0):  # a mission already running
-            if reply.ok is not None:
-                view.on_status(payload_text(reply.ok))
+        entities = follow(session, view)
         plain = args.plain or not sys.stdout.isatty()
         code = watch(view, args.until_end, args.timeout, plain, sys.stdout, stop)
         for e in entities:

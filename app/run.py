@@ -49,7 +49,7 @@ from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
 
-from app import arguments, fleet_run, foxglove, vehicles
+from app import arguments, fleet_run, fleet_zenoh, foxglove, vehicles
 from app.guard import guarded
 from app.mclc import OutputError, check_output, unread_pipe
 from app.monitor import task_detail
@@ -108,6 +108,7 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
     r.add_argument("--params", action="append", default=[], metavar="FILE",
                    help="a parameter file: one 'name = value' per line")
     r.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    fleet_zenoh.add_options(r)  # --as NAME, --fleet-vehicle NAME=ENDPOINT
     owned = vehicles.add_options(r)  # each kind's options, in a group of its own
     return r, owned
 
@@ -172,10 +173,18 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
     if is_fleet(args.mission):  # several vehicles and their channels: app/fleet_run.py
         if args.log_dir:
             _check_log(Path(args.log_dir) / "channels.jsonl", "--log-dir")
-        return fleet_run.run(args, Signer.load(args.log_key) if args.log_key is not None
-                             else None, _Timeline)
-    if args.loss or args.log_dir:
-        option = "--loss" if args.loss else "--log-dir"
+        signer = Signer.load(args.log_key) if args.log_key is not None else None
+        if args.as_ is not None:  # one of them here, its channels over Zenoh
+            return fleet_zenoh.run(args, signer, _Timeline, fleet_run.losses)
+        if args.fleet_vehicle:
+            raise file_error(args.mission, "--fleet-vehicle: only with --as NAME (one "
+                             "vehicle of the fleet over Zenoh)", "add --as NAME, or leave "
+                             "--fleet-vehicle out to run the fleet in one process",
+                             "fleet-option")
+        return fleet_run.run(args, signer, _Timeline)
+    if args.loss or args.log_dir or args.as_ is not None or args.fleet_vehicle:
+        option = ("--loss" if args.loss else "--log-dir" if args.log_dir
+                  else "--as" if args.as_ is not None else "--fleet-vehicle")
         raise file_error(args.mission, f"{option}: only for a fleet, and this file is a single "
                          "mission", f"leave {option} out (a fleet file starts with FLEET)",
                          "fleet-option")

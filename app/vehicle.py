@@ -12,6 +12,7 @@ ready on ...`` when ready and their summary when stopped (SIGTERM, SIGINT). Its 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import math
 import signal
@@ -74,6 +75,9 @@ def _zenoh_parser() -> argparse.ArgumentParser:
     p.add_argument("--scouting", action="store_true",
                    help="also be found by Zenoh's multicast scouting (off by default)")
     p.add_argument("--log-level", default="WARNING")
+    p.add_argument("--fleet", metavar="FLEET.mcl", default=None,
+                   help="this vehicle is --name of this fleet: with --users or TLS, its player "
+                        "may put on the channels it sends on, nobody else (docs/FLEET_ZENOH.md)")
     zenoh_options.add_arguments(p, "vehicle")
     return p
 
@@ -94,6 +98,15 @@ def zenoh_main(argv: list[str]) -> int:
     if problem:
         print(problem, file=sys.stderr)
         return Exit.INVALID
+    if args.fleet is not None:  # the channels its player may put on (app/fleet_zenoh.py)
+        from app.fleet_zenoh import sent_keys  # start-up speed: it compiles the fleet
+        from diagnostics import MclError
+
+        try:
+            security = dataclasses.replace(security, channels=sent_keys(args.fleet, args.name))
+        except MclError as exc:  # not a fleet, no such vehicle: file:line:col and a hint
+            print(exc.format(), file=sys.stderr)
+            return Exit.INVALID
     logging.basicConfig(level=args.log_level.upper(),
                         format="%(asctime)s vehicle %(levelname)s %(message)s")
     stop = _stop_on_signals()

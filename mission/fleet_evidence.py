@@ -29,7 +29,7 @@ from petri.execution.runlog import GENESIS, MAX_LINE, MAX_LOG, chain
 
 from mission.channels import RECORD_FORMAT, ChannelSpec
 
-KINDS = ("header", "sent", "delivered", "lost", "dropped", "undelivered", "end")
+KINDS = ("header", "sent", "delivered", "lost", "dropped", "undelivered", "refused", "end")
 TOLERANCE = 1e-5  # s: times are written to the microsecond
 
 

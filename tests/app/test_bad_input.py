@@ -77,13 +77,14 @@ def no_links() -> Iterator[None]:
     from vehicle_adapters import zenoh_link
     from vehicle_adapters.mavlink import link as mavlink_link
 
-    from app import monitor
+    from app import monitor, monitor_fleet
 
     with mock.patch.object(zenoh_link.ZenohVehicle, "__enter__", accepted), \
             mock.patch.object(mavlink_link.MavlinkVehicle, "__enter__", accepted), \
             mock.patch.object(serve, "VehicleServer", accepted), \
             mock.patch.object(ardusub, "ArduSubVehicle", accepted), \
-            mock.patch.object(monitor, "_open", accepted), \
+            mock.patch.object(monitor, "open_session", accepted), \
+            mock.patch.object(monitor_fleet, "open_session", accepted), \
             mock.patch.object(signal, "signal", lambda *_: None):
         yield
 
