@@ -177,3 +177,46 @@ def walk(block: Block) -> list[Block]:
 
 def calls(block: Block) -> list[Call]:
     return [b for b in walk(block) if isinstance(b, Call)]
+
+
+# -- fleets (docs/LANGUAGE.md, "Fleets") ----------------------------------------------------
+LINKS = ("acoustic", "radio", "tether")
+
+
+@dataclass(frozen=True)
+class ChannelDecl:
+    """``CHANNEL name FROM a TO b, c LINK DELAY lo .. hi [EVERY d] [LOSSY] MESSAGES m, n;``:
+    a directed channel from one vehicle to one or more. Names are :class:`Ref` (name and
+    span) so that messages can point at each."""
+
+    name: Ref
+    sender: Ref
+    receivers: tuple[Ref, ...]
+    link: str  # one of LINKS
+    delay_min: Number
+    delay_max: Number
+    every: Number | None
+    lossy: bool
+    messages: tuple[Ref, ...]
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """``VEHICLE name { USES ...; PARAM ...; MISSION ... ON STOP ... }``: one vehicle of a
+    fleet and its mission, written as a single-vehicle file is."""
+
+    name: Ref
+    mission: Mission
+    span: Span = field(default=_NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class Fleet:
+    """``FLEET name { CHANNEL ...; VEHICLE ... }``: several vehicles coordinated by messages on
+    channels (never by shared transitions)."""
+
+    name: str
+    channels: tuple[ChannelDecl, ...]
+    vehicles: tuple[Vehicle, ...]
+    span: Span = field(default=_NOWHERE, compare=False)

@@ -31,6 +31,57 @@ class AstBuilder:
         return self.source.span(getattr(m, "line", 1), getattr(m, "column", 1),
                                 getattr(m, "end_line", 0), getattr(m, "end_column", 0))
 
+    def unit(self, tree: Tree[Token]) -> ast.Mission | ast.Fleet:
+        """The whole file: a mission, or a fleet."""
+        *headers, last = tree.children
+        if isinstance(last, Tree) and last.data == "fleet":
+            if headers:
+                assert isinstance(headers[0], Tree)
+                raise error(self.source, f"{headers[0].data.upper()} before FLEET: each "
+                            "vehicle has its own", self.span(headers[0]),
+                            "move it inside the VEHICLE it belongs to", code="fleet-header")
+            return self.fleet(last)
+        return self.mission(tree)
+
+    def fleet(self, tree: Tree[Token]) -> ast.Fleet:
+        name, *items = tree.children
+        assert isinstance(name, Token)
+        channels = tuple(self.channel(c) for c in items
+                         if isinstance(c, Tree) and c.data == "channel")
+        vehicles = tuple(self.vehicle(v) for v in items
+                         if isinstance(v, Tree) and v.data == "vehicle")
+        return ast.Fleet(str(name), channels, vehicles, self.span(tree))
+
+    def name(self, tok: Tree[Token] | Token | None) -> ast.Ref:
+        assert isinstance(tok, Token)
+        return ast.Ref(str(tok), self.span(tok))
+
+    def channel(self, tree: Tree[Token]) -> ast.ChannelDecl:
+        kids = list(tree.children)
+        link_at = next(i for i, k in enumerate(kids) if isinstance(k, Tree)
+                       and k.data in ast.LINKS)
+        name, sender, *receivers = (self.name(k) for k in kids[:link_at])
+        link = kids[link_at]
+        assert isinstance(link, Tree)
+        delay, every, lossy, messages = kids[link_at + 1:]
+        assert isinstance(delay, Tree) and isinstance(messages, Tree)
+        lo, hi = delay.children
+        every_value = None
+        if isinstance(every, Tree):
+            value = self.value(every.children[0])
+            assert isinstance(value, ast.Number)
+            every_value = value
+        low, high = self.value(lo), self.value(hi)
+        assert isinstance(low, ast.Number) and isinstance(high, ast.Number)
+        return ast.ChannelDecl(name, sender, tuple(receivers), str(link.data), low, high,
+                               every_value, lossy is not None,
+                               tuple(self.name(m) for m in messages.children),
+                               self.span(tree))
+
+    def vehicle(self, tree: Tree[Token]) -> ast.Vehicle:
+        name, *rest = tree.children
+        return ast.Vehicle(self.name(name), self.mission(Tree("start", rest)), self.span(tree))
+
     def mission(self, tree: Tree[Token]) -> ast.Mission:
         *headers, mission_tree = tree.children
         params = tuple(self.param(p) for p in headers

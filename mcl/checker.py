@@ -20,7 +20,7 @@ from diagnostics import Diagnostic, MclError, Source, Span
 
 from mcl import ast
 from mcl.parser import KEYWORDS, suggest
-from mcl.declarations import Formal, Library, TaskForm
+from mcl.declarations import ActionSpec, Formal, Library, TaskForm
 from mcl.values import FIELDS, check, describe, limits, to_text
 
 
@@ -41,6 +41,18 @@ class Resolved:
     timeout: ast.Value | None = None  # a per-call timeout (named argument timeout = ...)
 
 
+@dataclass(frozen=True)
+class FleetScope:
+    """What a vehicle of a fleet may name in ``Send`` and ``Receive``: its name and the
+    fleet's channels (docs/LANGUAGE.md, "Fleets")."""
+
+    vehicle: str
+    channels: dict[str, ast.ChannelDecl]
+
+
+FLEET_TASKS = ("Send", "Receive")  # built in to every vehicle of a fleet, nowhere else
+
+
 @dataclass
 class Checked:
     mission: ast.Mission
@@ -53,6 +65,7 @@ class Checked:
     # what the analyses computed of this mission, kept so that each runs once per mission
     # (mcl.analysis.duration.analyse: the verifier, the duration report and the time limit)
     memo: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    fleet: FleetScope | None = None  # a vehicle of a fleet: its channels
 
     def resolved(self, call: ast.Call) -> Resolved:
         return self.calls[id(call)]
@@ -64,9 +77,10 @@ class Checked:
 
 def check_mission(mission: ast.Mission, library: Library, source: Source,
                   overrides: dict[str, tuple[ast.Value, Source]] | None = None,
-                  require_values: bool = False) -> Checked:
-    """Raise MclError listing every error; warnings are kept in ``Checked.diagnostics``."""
-    checked = Checked(mission, library, source)
+                  require_values: bool = False, fleet: FleetScope | None = None) -> Checked:
+    """Raise MclError listing every error; warnings are kept in ``Checked.diagnostics``.
+    ``fleet``: the mission is a vehicle's in a fleet (``Send`` and ``Receive`` are known)."""
+    checked = Checked(mission, library, source, fleet=fleet)
     c = _Checker(checked, source)
     for call in mission.calls():
         c.call(call)
@@ -123,6 +137,9 @@ class _Checker:
 
     # -- calls ------------------------------------------------------------------------------
     def call(self, call: ast.Call) -> None:
+        if self.checked.fleet is not None and call.name in FLEET_TASKS:
+            self.fleet_call(call, self.checked.fleet)
+            return
         forms = self.checked.library.tasks.get(call.name)
         if forms is None:
             if call.name.upper() in KEYWORDS:
@@ -195,6 +212,66 @@ class _Checker:
             if not problems:
                 self.uses.append(_Use(call, formal, args[formal.name]))
         self.checked.calls[id(call)] = Resolved(form, args, timeout)
+
+    def fleet_call(self, call: ast.Call, scope: FleetScope) -> None:
+        """``Send(CHANNEL, MESSAGE)`` and ``Receive(CHANNEL, MESSAGE[, timeout = D])``: the
+        channel must be one of the fleet's, from (Send) or to (Receive) this vehicle, and the
+        message one of its messages. Resolved to a task form of their own: Send ends at once
+        with a "send" action, Receive waits for the event ``CHANNEL.MESSAGE``."""
+        shape = ("Send(CHANNEL, MESSAGE)" if call.name == "Send"
+                 else "Receive(CHANNEL, MESSAGE[, timeout = DURATION])")
+        positional = [a.value for a in call.args if a.name is None]
+        named = [a for a in call.args if a.name is not None]
+        allowed = ("timeout",) if call.name == "Receive" else ()
+        bad = [a for a in named if a.name not in allowed]
+        if (len(positional) != 2 or bad or len(named) > 1
+                or any(not isinstance(v, ast.Ref) for v in positional)):
+            where = bad[0].span if bad else _name_span(call)
+            self.error(f"{call.name} takes a channel and one of its messages", where,
+                       f"write {shape}", code="fleet-bad-arguments")
+            return
+        channel_ref, message_ref = positional
+        assert isinstance(channel_ref, ast.Ref) and isinstance(message_ref, ast.Ref)
+        channel = scope.channels.get(channel_ref.name)
+        if channel is None:
+            hint = suggest(channel_ref.name, list(scope.channels)) or (
+                f"the fleet's channels: {', '.join(scope.channels) or 'none'}")
+            self.error(f"unknown channel '{channel_ref.name}'", channel_ref.span, hint,
+                       code="fleet-unknown-channel")
+            return
+        messages = [m.name for m in channel.messages]
+        if message_ref.name not in messages:
+            self.error(f"channel '{channel.name.name}' has no message '{message_ref.name}'",
+                       message_ref.span, suggest(message_ref.name, messages)
+                       or f"its messages: {', '.join(messages)}", code="fleet-unknown-message")
+            return
+        receivers = [r.name for r in channel.receivers]
+        if call.name == "Send" and channel.sender.name != scope.vehicle:
+            self.error(f"{scope.vehicle} cannot send on '{channel.name.name}': the channel is "
+                       f"from {channel.sender.name}", channel_ref.span,
+                       "send on a channel FROM this vehicle (channels are one way)",
+                       code="fleet-not-sender")
+            return
+        if call.name == "Receive" and scope.vehicle not in receivers:
+            self.error(f"{scope.vehicle} cannot receive on '{channel.name.name}': the channel "
+                       f"is to {', '.join(receivers)}", channel_ref.span,
+                       "receive on a channel TO this vehicle", code="fleet-not-receiver")
+            return
+        timeout = named[0].value if named else None
+        if timeout is not None:
+            problems = check(timeout, "duration", self.checked.param_kinds)
+            for p in problems:
+                self.error(p.message, p.node.span, code="bad-argument")
+            if not problems:
+                self.uses.append(_Use(call, None, timeout))
+        if call.name == "Send":
+            action = ActionSpec("send", channel.name.name, (("message", message_ref),),
+                                call.span)
+            form = TaskForm("Send", (), start=(action,), span=call.span)
+        else:
+            form = TaskForm("Receive", (), ok=(f"{channel.name.name}.{message_ref.name}",),
+                            span=call.span)
+        self.checked.calls[id(call)] = Resolved(form, {}, timeout)
 
     # -- the numbers values carry -----------------------------------------------------------
     def limits(self) -> None:

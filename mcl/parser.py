@@ -27,6 +27,9 @@ from mcl.ast_builder import AstBuilder, token_span
 
 KEYWORDS = ("MISSION", "PARAM", "USES", "TRY", "CATCH", "DO", "PARALLEL", "AND", "OR", "IF", "THEN",
             "ELSE", "WHILE", "ON", "STOP")
+# the words of a fleet (docs/LANGUAGE.md, "Fleets"): keywords only where a fleet is written
+FLEET_KEYWORDS = ("FLEET", "VEHICLE", "CHANNEL", "FROM", "TO", "ACOUSTIC", "RADIO", "TETHER",
+                  "DELAY", "EVERY", "LOSSY", "MESSAGES")
 MAX_DEPTH = 100  # blocks nested deeper than this are refused ("absurd nesting")
 
 # code -> (message, hint, examples that fail in the same parser state)
@@ -110,6 +113,19 @@ def parse_file(path: str) -> ast.Mission:
 
 
 def parse(source: Source) -> ast.Mission:
+    """Parse a single-vehicle mission; a fleet file is refused with a clear message (commands
+    that take fleets read them with :func:`parse_unit`)."""
+    unit = parse_unit(source)
+    if isinstance(unit, ast.Fleet):
+        raise error(source, f"this file is a fleet (FLEET {unit.name}), not a single mission",
+                    source.span(unit.span.line, unit.span.col),
+                    "this command takes one vehicle's mission; mclc and mcl run take fleets",
+                    code="fleet-file")
+    return unit
+
+
+def parse_unit(source: Source) -> ast.Mission | ast.Fleet:
+    """Parse a mission file or a fleet file (docs/LANGUAGE.md, "Fleets")."""
     if not source.text.strip():
         raise error(source, "the file is empty", source.span(1, 1),
                     "a mission file holds MISSION { ... }", code="empty-file")
@@ -118,7 +134,7 @@ def parse(source: Source) -> ast.Mission:
     except UnexpectedInput as exc:
         raise _friendly(source, exc) from None
     check_depth(source, tree)
-    return AstBuilder(source).mission(tree)
+    return AstBuilder(source).unit(tree)
 
 
 def parse_value(text: str, origin: str = "<command line>", line: int = 1,
@@ -267,7 +283,7 @@ _TERMINAL_NAMES = {"LBRACE": "'{'", "RBRACE": "'}'", "LPAR": "'('", "RPAR": "')'
 def _pretty_terminal(name: str) -> str:
     if name in _TERMINAL_NAMES:
         return _TERMINAL_NAMES[name]
-    return name if name in KEYWORDS else name.lower()
+    return name if name in KEYWORDS or name in FLEET_KEYWORDS else name.lower()
 
 
 def _pretty_token(tok: Token) -> str:

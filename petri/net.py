@@ -35,9 +35,11 @@ class Origin:
 
 @dataclass(frozen=True)
 class Action:
-    """An order to the vehicle: enable, disable or configure one behaviour (docs/AAL.md)."""
+    """An order to the vehicle: enable, disable or configure one behaviour (docs/AAL.md);
+    or, in a fleet's vehicle, ``send`` a message on a channel (``behaviour`` is the channel,
+    ``params`` ``(("message", name),)``), which the player gives to the fleet's channels."""
 
-    kind: str  # "enable" | "disable" | "configure"
+    kind: str  # "enable" | "disable" | "configure" | "send"
     behaviour: str
     params: tuple[tuple[str, Json], ...] = ()
 

@@ -100,6 +100,9 @@ def _value(ctx: Context, expr: Expr, resolved: Resolved, kind: str,
 
 def _action(ctx: Context, spec: ActionSpec, resolved: Resolved,
             points: dict[str, object] | None = None) -> Action:
+    if spec.kind == "send":  # Send(CHANNEL, MESSAGE) of a fleet: names, not values
+        return Action("send", spec.behaviour, tuple(
+            (key, expr.name) for key, expr in spec.bindings if isinstance(expr, ast.Ref)))
     params = tuple((key, _value(ctx, expr, resolved, "list", points))
                    for key, expr in spec.bindings)
     return Action(spec.kind, spec.behaviour, params)

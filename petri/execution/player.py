@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import heapq
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -96,6 +97,10 @@ class Player:
     zeno: str | None = field(init=False, default=None)
     ordered: int = field(init=False, default=0)  # the orders ever put in the outbox
     zeno_ordered: int = field(init=False, default=0)  # ... before the abort of such a loop
+    # where a fleet's "send" actions go (Send(CHANNEL, MESSAGE)): the fleet's channels, never
+    # the vehicle. Each gets an Order of kind "send", behaviour the channel, params
+    # {"message": ...}. None: a net that sends refuses to start (it needs a fleet).
+    sender: Callable[[Order], None] | None = None
 
     def __post_init__(self) -> None:
         self.rules = Semantics(self.net)
@@ -113,6 +118,9 @@ class Player:
     # -- the three ways a transition fires -------------------------------------------------
     @whole
     def start(self, now: float) -> None:
+        if self.sender is None and self.sends():
+            raise ValueError(f"{self.net.name} sends messages ({', '.join(self.sends())}): it "
+                             "runs in its fleet, with the fleet's channels (mcl run FLEET.mcl)")
         self.status = "running"
         self._clock = now
         self._emit(now, "status", {"status": "running"})
@@ -343,6 +351,13 @@ class Player:
         watcher shared by several tasks, a latch) is not sent: it stays on until the last
         holder lets go. ``last_resort``: the player's own switch-off at the end."""
         params = {k: self._resolve(v) for k, v in action.params}
+        if action.kind == "send":  # a fleet's message: to its channel, never to the vehicle
+            if self.sender is None:
+                raise ValueError(f"{task} sends on {action.behaviour}: no channel to send on")
+            self.sender(Order(now, task, "send", action.behaviour, params))
+            self._emit(now, "action", {"action": "send", "behaviour": action.behaviour,
+                                       "params": params, "task": task})
+            return
         if action.kind == "disable":
             holders = [] if last_resort else self.rules.held(self.marking, action.behaviour)
             if holders:
@@ -391,6 +406,11 @@ class Player:
     # -- telling the observers --------------------------------------------------------------
     def _emit(self, now: float, kind: str, data: dict[str, Any]) -> None:
         self.reporting.emit(Record(now, kind, data))
+
+    def sends(self) -> list[str]:
+        """The channels this net's "send" actions go to (a fleet's vehicle), sorted."""
+        return sorted({a.behaviour for t in self.net.transitions for a in t.actions
+                       if a.kind == "send"})
 
     # -- for observers ----------------------------------------------------------------------
     @property
