@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from diagnostics import Diagnostic, MclError, Span
+from mcl.analysis import verdicts
 from mcl.api import Compiled, compile_file, parse_params
 
 from app.arguments import memory_size
@@ -259,14 +260,8 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str,
     report = _summary(compiled)
     status = Exit.OK
     if not args.no_verify:
-        from mcl.analysis.verification import verify_mission
-
-        verdict = verify_mission(compiled, args.method, max_markings=args.max_markings,
-                                 max_bytes=args.max_memory, keep_graph=args.graphml is not None)
-        if args.graphml is not None:
-            _write_graph(path, args.graphml, compiled.net, verdict.space,
-                         "--method auto took the structural route")
-        report["verification"] = verdict.to_json()
+        verdict = _verify(path, compiled, args)
+        report["verification"] = verdict.report
         status = (Exit.OK if verdict.ok else Exit.FAILED if verdict.failed
                   else Exit.UNDECIDED)
         report["status"] = ("verified" if verdict.ok else "property-fails" if verdict.failed
@@ -283,6 +278,21 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str,
         if args.limits.asked:
             print("\n".join([f"  FAIL {f}" for f in bounds.failures] + bounds.lines))
     return status, report
+
+
+def _verify(path: str, compiled: Compiled, args: argparse.Namespace) -> verdicts.Report:
+    """The verification's report: from the cache when the same mission, options and code were
+    verified before (mcl/analysis/verdicts.py), but with ``--graphml``, which writes the graph
+    a verification explores."""
+    if args.graphml is None:
+        return verdicts.verified(compiled, args.method, args.max_markings, args.max_memory)
+    from mcl.analysis.verification import verify_mission  # numpy: loaded when needed
+
+    verdict = verify_mission(compiled, args.method, max_markings=args.max_markings,
+                             max_bytes=args.max_memory, keep_graph=True)
+    _write_graph(path, args.graphml, compiled.net, verdict.space,
+                 "--method auto took the structural route")
+    return verdicts.Report.of(verdict)
 
 
 def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:

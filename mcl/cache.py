@@ -76,8 +76,9 @@ def cached(name: str, parts: Callable[[], Iterable[str | bytes]], build: Callabl
         return build()
     try:
         path = place / f"{name}-{key(parts())}.pickle"
-    except OSError:  # the code or a library cannot be read: no key, no cache
-        return build()
+    except (OSError, ValueError, TypeError, AttributeError, RecursionError,
+            pickle.PicklingError):
+        return build()  # an input cannot be read (or serialised, for a key): no key, no cache
     try:
         with open(path, "rb") as f:
             if mine(f.fileno()):
