@@ -14,7 +14,6 @@ import json
 import os
 import stat
 import sys
-import traceback
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -218,6 +217,8 @@ def _main(argv: list[str] | None, so_far: list[Exit], prog: str) -> int:
             raise
         except Exception as exc:  # a bug of ours: say so plainly, never a bare traceback
             if args.debug:
+                import traceback  # lazy for start-up speed: only for --debug (3 ms)
+
                 traceback.print_exc()
             print(f"{path}: internal error: {type(exc).__name__}: {exc}\n"
                   "  hint: this is a bug in mclc; rerun with --debug and report it",
@@ -296,9 +297,12 @@ def _verify(path: str, compiled: Compiled, args: argparse.Namespace) -> verdicts
 
 
 def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:
-    from petri.formats.dot import to_dot
-
     net = compiled.net
+
+    def to_dot(net: Any, view: str) -> str:
+        from petri.formats.dot import to_dot as dot  # lazy for start-up speed: --dot only
+
+        return dot(net, view)
 
     def text(content: Callable[[], str]) -> Callable[[str], None]:
         def write(path: str) -> None:

@@ -22,7 +22,7 @@ over the entry), and writing one removes the entries of the same name under othe
 
 from __future__ import annotations
 
-import hashlib
+import importlib
 import os
 import pickle
 import sys
@@ -31,6 +31,21 @@ from pathlib import Path
 from typing import IO, Any, TypeVar
 
 T = TypeVar("T")
+
+
+def builtin_sha256() -> Callable[[bytes], Any]:
+    """SHA-256 from Python's own module (``_sha2``, ``_sha256`` before 3.12) when there is one:
+    hashlib's takes OpenSSL's, and loading OpenSSL costs 4 ms of every call."""
+    for module in ("_sha2", "_sha256", "hashlib"):
+        try:
+            found: Callable[[bytes], Any] = importlib.import_module(module).sha256
+        except (ImportError, AttributeError):
+            continue
+        return found
+    raise ImportError("no SHA-256 in this Python")
+
+
+SHA256 = builtin_sha256()
 
 FORMAT = b"mcl-cache 1"  # bump when the layout of an entry changes
 FOLDER = "mcl-auv"  # the folder under the user's cache home
@@ -48,12 +63,12 @@ def folder() -> Path | None:
 def key(parts: Iterable[str | bytes]) -> str:
     """The SHA-256 (hex) of the parts, each length-prefixed (no two lists of parts share a
     key by running together), with the entries' format and Python's version."""
-    digest = hashlib.sha256(FORMAT)
+    digest = SHA256(FORMAT)
     for part in (sys.version.encode(), *parts):
         data = part.encode("utf-8") if isinstance(part, str) else part
         digest.update(len(data).to_bytes(8, "little"))
         digest.update(data)
-    return digest.hexdigest()
+    return str(digest.hexdigest())
 
 
 def source_files(roots: Iterable[Path]) -> list[bytes]:

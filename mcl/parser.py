@@ -9,21 +9,16 @@ from __future__ import annotations
 
 import difflib
 from functools import lru_cache
-
-from lark import (
-    Lark,
-    Token,
-    Tree,
-    UnexpectedCharacters,
-    UnexpectedEOF,
-    UnexpectedInput,
-    UnexpectedToken,
-)
+from typing import TYPE_CHECKING
 
 from diagnostics import MclError, Source, Span, error, read_source
 
 from mcl import ast, grammars
 from mcl.ast_builder import AstBuilder, token_span
+from mcl.syntax import Token, Tree
+
+if TYPE_CHECKING:
+    from lark import Lark, UnexpectedInput
 
 KEYWORDS = ("MISSION", "PARAM", "USES", "TRY", "CATCH", "DO", "PARALLEL", "AND", "OR", "IF", "THEN",
             "ELSE", "WHILE", "ON", "STOP")
@@ -102,9 +97,15 @@ KNOWN_MISTAKES: dict[str, tuple[str, str, list[str]]] = {
 
 
 @lru_cache(maxsize=1)
+def mission_parser() -> grammars.Standalone:
+    """The parser of ``mcl/grammar/mcl.lark`` (lark's standalone module, mcl/grammars.py) and
+    the classes of the errors it raises."""
+    return grammars.standalone("mcl.lark", parser="lalr", propagate_positions=True,
+                               maybe_placeholders=True, start=["start", "value"])
+
+
 def _lark() -> Lark:
-    return grammars.parser("mcl.lark", parser="lalr", propagate_positions=True,
-                           maybe_placeholders=True, start=["start", "value"])
+    return mission_parser().parser
 
 
 def parse_file(path: str) -> ast.Mission:
@@ -131,7 +132,7 @@ def parse_unit(source: Source) -> ast.Mission | ast.Fleet:
                     "a mission file holds MISSION { ... }", code="empty-file")
     try:
         tree = _lark().parse(source.text, start="start")
-    except UnexpectedInput as exc:
+    except mission_parser().unexpected_input as exc:
         raise _friendly(source, exc) from None
     check_depth(source, tree)
     return AstBuilder(source).unit(tree)
@@ -147,9 +148,9 @@ def parse_value(text: str, origin: str = "<command line>", line: int = 1,
     source = Source(origin, padded)
     try:
         tree = _lark().parse(padded, start="value")
-    except UnexpectedInput as exc:
+    except mission_parser().unexpected_input as exc:
         token = getattr(exc, "token", None)
-        ended = isinstance(exc, UnexpectedEOF) or getattr(token, "type", "") == "$END"
+        ended = isinstance(exc, mission_parser().unexpected_eof) or getattr(token, "type", "") == "$END"
         at = (source.span(line, column + len(text.rstrip())) if ended or exc.line < 1
               else source.span(exc.line, max(exc.column, 1)))  # at the end: after the value
         raise error(source, f"not a value: {text!r}", at,
@@ -161,8 +162,9 @@ def parse_value(text: str, origin: str = "<command line>", line: int = 1,
 
 # -- friendly syntax errors ------------------------------------------------------------------
 def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
+    errors = mission_parser()
     line, col = max(exc.line, 1), max(exc.column, 1)
-    if isinstance(exc, UnexpectedCharacters):
+    if isinstance(exc, errors.unexpected_characters):
         pos = exc.pos_in_stream or 0
         char = source.text[pos] if pos < len(source.text) else ""
         if source.text.startswith("/*", pos):
@@ -171,7 +173,8 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
         return error(source, f"unexpected character {char!r}", source.span(line, col),
                      "MCL uses letters, digits, _ ( ) [ ] { } , ; = . and comments",
                      code="bad-character")
-    token = exc.token if isinstance(exc, (UnexpectedToken, UnexpectedEOF)) else None
+    token = (exc.token if isinstance(exc, (errors.unexpected_token, errors.unexpected_eof))
+             else None)
     previous = _token_before(source, line, col)
     # Lower-case keywords: "try {" reads as a task named try followed by '{'.
     if isinstance(token, Token) and previous is not None and previous.type == "NAME":
@@ -198,7 +201,8 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
         if code == "text-after-mission" and isinstance(token, Token):
             span = token_span(source, token)
         return error(source, message, span, hint, code=code)
-    if isinstance(exc, UnexpectedEOF) or (isinstance(token, Token) and token.type == "$END"):
+    if isinstance(exc, errors.unexpected_eof) or (isinstance(token, Token)
+                                                   and token.type == "$END"):
         return error(source, "unexpected end of file", _end_span(source),
                      "a '}' or an item may be missing", code="unexpected-eof")
     assert isinstance(token, Token)
@@ -218,8 +222,9 @@ def known_mistake(exc: UnexpectedInput) -> str | None:
 
     Unlike lark's ``match_examples``, which also asks for the same depth of the parser's stack,
     this does not depend on what comes before the mistake (PARAM lines, enclosing blocks)."""
+    errors = mission_parser()
     state = exc.state
-    if state is None or not isinstance(exc, (UnexpectedToken, UnexpectedEOF)):
+    if state is None or not isinstance(exc, (errors.unexpected_token, errors.unexpected_eof)):
         return None
     accepts = getattr(exc, "accepts", None)
     candidate = None
@@ -227,7 +232,7 @@ def known_mistake(exc: UnexpectedInput) -> str | None:
         for example in examples:
             try:
                 _lark().parse(example, start="start")
-            except (UnexpectedToken, UnexpectedEOF) as seen:
+            except (errors.unexpected_token, errors.unexpected_eof) as seen:
                 if (seen.state is None or seen.state.position != state.position
                         or getattr(seen, "accepts", None) != accepts):
                     continue
@@ -264,7 +269,7 @@ def _token_before(source: Source, line: int, col: int) -> Token | None:
             if (tok.line, tok.column) >= (line, col):
                 break
             previous = tok
-    except UnexpectedInput:
+    except mission_parser().unexpected_input:
         pass
     return previous
 

@@ -19,7 +19,6 @@ key: both give the same verdicts (tests/petri/verification/test_explore_engines.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import io
 import json
 import os
@@ -76,7 +75,7 @@ def verified(compiled: Compiled, method: str, max_markings: int, max_bytes: int)
         return [FORMAT, method, str(max_markings), str(max_bytes), mission_bytes(compiled),
                 *cache.source_files(VERIFIER_CODE)]
 
-    where = hashlib.sha256(os.path.abspath(compiled.source.name).encode()).hexdigest()[:16]
+    where = cache.SHA256(os.path.abspath(compiled.source.name).encode()).hexdigest()[:16]
     report = cache.cached(f"verdict-{where}", parts, build)
     if made:
         return report
