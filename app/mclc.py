@@ -21,6 +21,7 @@ from typing import Any
 from diagnostics import Diagnostic, MclError, Span
 from mcl.analysis import verdicts
 from mcl.api import Compiled, compile_file, parse_params
+from mcl.parser import trees_kept
 
 from app.arguments import memory_size
 from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
@@ -170,7 +171,7 @@ def main(argv: list[str] | None = None, prog: str = "mclc") -> int:
     open_standard_streams()
     worst = [Exit.OK]
     try:
-        with watched_stdout():
+        with watched_stdout(), trees_kept():  # mclc parses the same files call after call
             return _main(argv, worst, prog)
     except BrokenPipeError as exc:
         stdout_closed()

@@ -8,12 +8,17 @@ wrong in the same way); the same table is exercised by the tests.
 from __future__ import annotations
 
 import difflib
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from functools import lru_cache
+from pathlib import Path
 from typing import TYPE_CHECKING
 
+import diagnostics
 from diagnostics import MclError, Source, Span, error, read_source
 
-from mcl import ast, grammars
+from mcl import ast, cache, grammars
 from mcl.ast_builder import AstBuilder, token_span
 from mcl.syntax import Token, Tree
 
@@ -126,10 +131,41 @@ def parse(source: Source) -> ast.Mission:
 
 
 def parse_unit(source: Source) -> ast.Mission | ast.Fleet:
-    """Parse a mission file or a fleet file (docs/LANGUAGE.md, "Fleets")."""
+    """Parse a mission file or a fleet file (docs/LANGUAGE.md, "Fleets"); within
+    :func:`trees_kept`, a text parsed before is loaded from the cache instead."""
     if not source.text.strip():
         raise error(source, "the file is empty", source.span(1, 1),
                     "a mission file holds MISSION { ... }", code="empty-file")
+    if not KEEP_TREES:
+        return parse_text(source)
+    where = cache.SHA256(os.path.abspath(source.name).encode()).hexdigest()[:16]
+    return cache.cached(f"syntax-{where}", lambda: [
+        "syntax 1", source.name, source.text, grammars.grammar_text("mcl.lark"),
+        grammars.lark_version(), *cache.source_files(TREE_CODE)], lambda: parse_text(source))
+
+
+# Whether parse_unit keeps the syntax tree of each text in the cache (mcl/cache.py), one entry
+# per file, and loads it from there when the file's text, the grammar, lark's version and the
+# code are those it was parsed with: on within trees_kept() (mclc, which parses the same files
+# call after call: about a fifth of its time for the dam), off elsewhere (an editor's or a
+# test's texts are parsed once each, and would only fill the cache).
+KEEP_TREES = False
+TREE_CODE = (Path(__file__).parent, Path(diagnostics.__file__).parent)  # the parser, the AST
+
+
+@contextmanager
+def trees_kept() -> Iterator[None]:
+    """Within it, parse_unit keeps syntax trees in the cache (:data:`KEEP_TREES`)."""
+    global KEEP_TREES
+    before, KEEP_TREES = KEEP_TREES, True
+    try:
+        yield
+    finally:
+        KEEP_TREES = before
+
+
+def parse_text(source: Source) -> ast.Mission | ast.Fleet:
+    """Parse a mission file or a fleet file, never from the cache."""
     try:
         tree = _lark().parse(source.text, start="start")
     except mission_parser().unexpected_input as exc:
