@@ -9,7 +9,8 @@ and the checked mission (the syntax tree, the task library, the parameters) — 
 and the packages' sources, so an entry is what verifying that key's inputs gives. A call that
 finds its entry loads the report (JSON text and two flags: no numpy, no search); one that does
 not verifies and stores it. The entry is named by the mission file's absolute path: writing
-one replaces that file's entry under an older key, so the cache holds one verdict per file.
+one replaces that file's entry under an older key, so the cache holds one verdict per file. A
+mission of more than :data:`MAX_TRANSITIONS` transitions is verified every call.
 
 The report holds ``"cached": true`` when it came from the cache (its ``seconds`` are those of
 the verification that made it). The explicit route's engine (numba or numpy) is not in the
@@ -33,6 +34,11 @@ if TYPE_CHECKING:
     from mcl.api import Compiled
     from petri.verification.verdict import Verdict
 
+# A mission's key is its objects serialised (mission_bytes): about 20 us a transition, which
+# on a net of this many transitions costs what verifying it does (the 10,000-waypoint
+# lawnmower, 110,026 transitions: 2.3 s to key, 2.2 s to verify; a thousand latched tasks,
+# 10,340: 0.2 s against 0.65 s). Larger missions are verified every call.
+MAX_TRANSITIONS = 50_000
 FORMAT = "verdict 1"  # bump when the entry's layout or the report's meaning changes
 # The code a verdict is computed by: every package the verification imports (mcl's layers
 # below it, docs/LAYOUT.md, that it uses).
@@ -75,6 +81,8 @@ def verified(compiled: Compiled, method: str, max_markings: int, max_bytes: int)
         return [FORMAT, method, str(max_markings), str(max_bytes), mission_bytes(compiled),
                 *cache.source_files(VERIFIER_CODE)]
 
+    if len(compiled.net.transitions) > MAX_TRANSITIONS:
+        return build()  # its key would cost what verifying it does
     where = cache.SHA256(os.path.abspath(compiled.source.name).encode()).hexdigest()[:16]
     report = cache.cached(f"verdict-{where}", parts, build)
     if made:

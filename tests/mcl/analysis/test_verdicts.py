@@ -163,3 +163,18 @@ def test_mclc_says_when_its_verdict_comes_from_the_cache(folder: Path, counting:
     note = "  (the verdict of an earlier call: the same net, options and code; " \
            "MCL_CACHE_DIR= verifies again)"
     assert note not in outputs[0] and outputs[1] == outputs[0] + [note]
+
+
+def test_a_mission_larger_than_the_limit_is_verified_every_call(
+        folder: Path, counting: Counting, tmp_path: Path,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    path = mission(tmp_path, SHORT)
+    size = len(compile_file(path).net.transitions)
+    monkeypatch.setattr(verdicts, "MAX_TRANSITIONS", size - 1)
+    for _ in range(2):
+        assert "cached" not in verdicts.verified(compile_file(path), "auto", 10, 1 << 30).report
+    assert counting.calls == 2 and not list(folder.glob("verdict-*"))
+    monkeypatch.setattr(verdicts, "MAX_TRANSITIONS", size)
+    for _ in range(2):
+        verdicts.verified(compile_file(path), "auto", 10, 1 << 30)
+    assert counting.calls == 3
