@@ -40,8 +40,8 @@ if TYPE_CHECKING:
 # 10,340: 0.2 s against 0.65 s). Larger missions are verified every call.
 MAX_TRANSITIONS = 50_000
 FORMAT = "verdict 1"  # bump when the entry's layout or the report's meaning changes
-# The code a verdict is computed by: every package the verification imports (mcl's layers
-# below it, docs/LAYOUT.md, that it uses).
+# The code a verdict is computed by: mcl and the packages below it that the verification
+# imports (docs/ARCHITECTURE.md: imports point down).
 VERIFIER_CODE = tuple(Path(__file__).resolve().parents[2] / name
                       for name in ("mcl", "petri", "aal", "diagnostics"))
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import lark
 import pytest
 
-from mcl import grammars, syntax
+from mcl import grammars
 from tests.support import MISSIONS, REPO, subprocess_env
 
 OPTIONS = {"parser": "lalr", "propagate_positions": True, "maybe_placeholders": True,
@@ -142,16 +142,3 @@ def test_another_generator_is_another_standalone_entry(
     grammars.standalone("mcl.lark", **OPTIONS)
     after = {p.name for p in folder.iterdir()}
     assert len(after) == 1 and after != before
-
-
-def test_tokens_and_trees_of_either_parser_are_recognised(folder: Path) -> None:
-    fresh = lark.Lark.open_from_package("mcl", "mcl.lark", ("grammar",), **OPTIONS)
-    standalone = grammars.standalone("mcl.lark", **OPTIONS)
-    for parser in (fresh, standalone.parser):
-        tree = parser.parse("MISSION { A() }", start="start")
-        tokens = list(parser.lex("MISSION { A() }"))
-        assert tokens and all(isinstance(t, syntax.Token) for t in tokens)
-        assert isinstance(tree, syntax.Tree) and not isinstance(tree, syntax.Token)
-    assert not isinstance("NAME", syntax.Token) and not isinstance("NAME", syntax.Tree)
-    made: syntax.Tree[syntax.Token] = syntax.Tree("start", [])
-    assert isinstance(made, syntax.Tree) and made.meta.empty and made.children == []
