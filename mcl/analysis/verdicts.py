@@ -59,12 +59,23 @@ class Report:
     @classmethod
     def of(cls, verdict: Verdict) -> Report:
         """The report of a verdict, as plain JSON values (nothing that needs numpy to load)."""
-        return cls(json.loads(json.dumps(verdict.to_json())), verdict.ok, verdict.failed)
+        return cls(json.loads(json.dumps(verdict.to_json(), default=plain)), verdict.ok,
+                   verdict.failed)
 
 
-def verified(compiled: Compiled, method: str, max_markings: int, max_bytes: int) -> Report:
+def plain(value: Any) -> Any:
+    """A numpy number of a report as the Python number it holds (json's ``default``)."""
+    if hasattr(value, "item"):
+        return value.item()
+    raise TypeError(f"not JSON: {type(value).__name__}")
+
+
+def verified(compiled: Compiled, method: str, max_markings: int, max_bytes: int,
+             part: str = "") -> Report:
     """The report of ``verify_mission(compiled, method, max_markings, max_bytes)``, from the
-    cache when this mission, these options and this code were verified before."""
+    cache when this mission, these options and this code were verified before. ``part`` names
+    the mission within its file when a file holds several (a fleet's vehicle), so that each
+    keeps an entry of its own."""
 
     made: list[Report] = []  # the report verified by this call, if it was
 
@@ -83,7 +94,8 @@ def verified(compiled: Compiled, method: str, max_markings: int, max_bytes: int)
 
     if len(compiled.net.transitions) > MAX_TRANSITIONS:
         return build()  # its key would cost what verifying it does
-    where = cache.SHA256(os.path.abspath(compiled.source.name).encode()).hexdigest()[:16]
+    place = f"{os.path.abspath(compiled.source.name)}\0{part}"
+    where = cache.SHA256(place.encode()).hexdigest()[:16]
     report = cache.cached(f"verdict-{where}", parts, build)
     if made:
         return report

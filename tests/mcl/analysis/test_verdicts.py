@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import json
 import os
 import subprocess
 import sys
@@ -14,6 +15,7 @@ from contextlib import redirect_stdout
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from app.mclc import main as mclc
@@ -178,3 +180,23 @@ def test_a_mission_larger_than_the_limit_is_verified_every_call(
     for _ in range(2):
         verdicts.verified(compile_file(path), "auto", 10, 1 << 30)
     assert counting.calls == 3
+
+
+def test_each_part_of_a_file_keeps_an_entry_of_its_own(folder: Path, counting: Counting,
+                                                       tmp_path: Path) -> None:
+    path = mission(tmp_path, SHORT)
+    for _ in range(2):
+        for part in ("leader", "follower"):
+            verdicts.verified(compile_file(path), "auto", 10, 1 << 30, part)
+    assert counting.calls == 2 and len(list(folder.glob("verdict-*.pickle"))) == 2
+
+
+def test_a_report_s_numpy_numbers_become_python_numbers() -> None:
+    assert json_of({"markings": np.int64(3), "seconds": np.float64(0.5)}) == {
+        "markings": 3, "seconds": 0.5}
+    with pytest.raises(TypeError, match="not JSON: object"):
+        verdicts.plain(object())
+
+
+def json_of(value: dict[str, Any]) -> Any:
+    return json.loads(json.dumps(value, default=verdicts.plain))
