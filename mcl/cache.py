@@ -105,6 +105,21 @@ def cached(name: str, parts: Callable[[], Iterable[str | bytes]], build: Callabl
     return value
 
 
+def prune(prefix: str, keep: int) -> None:
+    """Remove all but the ``keep`` most recently written entries whose names start with
+    ``prefix``: the kinds kept per file (syntax trees, verdicts) would otherwise grow with every
+    file ever checked (a test suite's temporary files). Any failure leaves them."""
+    place = folder()
+    if place is None:
+        return
+    try:
+        entries = sorted(place.glob(f"{prefix}*.pickle"), key=lambda p: p.stat().st_mtime_ns)
+        for old in entries[:-keep] if keep > 0 else entries:
+            old.unlink(missing_ok=True)
+    except OSError:  # another process removed one first, or the folder is unreadable
+        pass
+
+
 def mine(fd: int) -> bool:
     """Whether the open entry belongs to this user: an entry is a pickle, and loading one runs
     what it says, so one that another user could have put in a shared folder is not read."""

@@ -139,17 +139,28 @@ def parse_unit(source: Source) -> ast.Mission | ast.Fleet:
     if not KEEP_TREES:
         return parse_text(source)
     where = cache.SHA256(os.path.abspath(source.name).encode()).hexdigest()[:16]
-    return cache.cached(f"syntax-{where}", lambda: [
+    parsed: list[ast.Mission | ast.Fleet] = []
+
+    def parse() -> ast.Mission | ast.Fleet:
+        parsed.append(parse_text(source))
+        return parsed[0]
+
+    unit = cache.cached(f"syntax-{where}", lambda: [
         "syntax 1", source.name, source.text, grammars.grammar_text("mcl.lark"),
-        grammars.lark_version(), *cache.source_files(TREE_CODE)], lambda: parse_text(source))
+        grammars.lark_version(), *cache.source_files(TREE_CODE)], parse)
+    if parsed:
+        cache.prune("syntax-", KEEP_TREES_OF)
+    return unit
 
 
 # Whether parse_unit keeps the syntax tree of each text in the cache (mcl/cache.py), one entry
-# per file, and loads it from there when the file's text, the grammar, lark's version and the
-# code are those it was parsed with: on within trees_kept() (mclc, which parses the same files
-# call after call: about a fifth of its time for the dam), off elsewhere (an editor's or a
-# test's texts are parsed once each, and would only fill the cache).
+# per file (for the KEEP_TREES_OF files parsed last), and loads it from there when the file's
+# text, the grammar, lark's version and the code are those it was parsed with: on within
+# trees_kept() (mclc, which parses the same files call after call: about a fifth of its time
+# for the dam), off elsewhere (an editor's or a test's texts are parsed once each, and would
+# only fill the cache).
 KEEP_TREES = False
+KEEP_TREES_OF = 500  # files whose trees are kept: those parsed last
 TREE_CODE = (Path(__file__).parent, Path(diagnostics.__file__).parent)  # the parser, the AST
 
 

@@ -9,8 +9,8 @@ and the checked mission (the syntax tree, the task library, the parameters) — 
 and the packages' sources, so an entry is what verifying that key's inputs gives. A call that
 finds its entry loads the report (JSON text and two flags: no numpy, no search); one that does
 not verifies and stores it. The entry is named by the mission file's absolute path: writing
-one replaces that file's entry under an older key, so the cache holds one verdict per file. A
-mission of more than :data:`MAX_TRANSITIONS` transitions is verified every call.
+one replaces that file's entry under an older key, so the cache holds one verdict per file,
+for the :data:`KEEP` files verified last. A mission of more than :data:`MAX_TRANSITIONS` transitions is verified every call.
 
 The report holds ``"cached": true`` when it came from the cache (its ``seconds`` are those of
 the verification that made it). The explicit route's engine (numba or numpy) is not in the
@@ -39,6 +39,7 @@ if TYPE_CHECKING:
 # lawnmower, 110,026 transitions: 2.3 s to key, 2.2 s to verify; a thousand latched tasks,
 # 10,340: 0.2 s against 0.65 s). Larger missions are verified every call.
 MAX_TRANSITIONS = 50_000
+KEEP = 500  # verdicts kept: those of the files verified last
 FORMAT = "verdict 1"  # bump when the entry's layout or the report's meaning changes
 # The code a verdict is computed by: mcl and the packages below it that the verification
 # imports (docs/ARCHITECTURE.md: imports point down).
@@ -98,6 +99,7 @@ def verified(compiled: Compiled, method: str, max_markings: int, max_bytes: int,
     where = cache.SHA256(place.encode()).hexdigest()[:16]
     report = cache.cached(f"verdict-{where}", parts, build)
     if made:
+        cache.prune("verdict-", KEEP)
         return report
     return Report({**report.report, "cached": True}, report.ok, report.failed)
 

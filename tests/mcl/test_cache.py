@@ -133,3 +133,15 @@ def test_an_entry_another_user_owns_is_not_loaded(folder: Path,
     assert cache.cached("thing", lambda: ["a"], build)["call"] == 2  # type: ignore[index]
     monkeypatch.setattr(os, "getuid", lambda: owner)
     assert cache.cached("thing", lambda: ["a"], build)["call"] == 2  # type: ignore[index]
+
+
+def test_prune_keeps_the_entries_written_last(folder: Path) -> None:
+    for i in range(5):
+        cache.cached(f"kind-{i}", lambda: ["a"], Builder(i))
+        os.utime(next(folder.glob(f"kind-{i}-*.pickle")), ns=(i * 10**9, i * 10**9))
+    cache.cached("other", lambda: ["a"], lambda: 0)
+    cache.prune("kind-", 2)
+    assert sorted(p.name.split("-")[1] for p in folder.glob("kind-*")) == ["3", "4"]
+    assert len(list(folder.glob("other-*"))) == 1  # another kind is left
+    cache.prune("kind-", 0)
+    assert not list(folder.glob("kind-*"))

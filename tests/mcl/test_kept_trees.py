@@ -90,3 +90,12 @@ def test_mclc_keeps_trees_and_leaves_the_setting_as_it_was(folder: Path, counted
             assert mclc([str(path), "--no-verify"]) == 0
     assert len(counted) == 1 and not parser.KEEP_TREES
     assert len(list(folder.glob("syntax-*.pickle"))) == 1
+
+
+def test_the_trees_of_the_files_parsed_last_are_kept(folder: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(parser, "KEEP_TREES_OF", 2)
+    with parser.trees_kept():
+        for name in ("a.mcl", "b.mcl", "c.mcl"):
+            parser.parse_unit(dam(name))
+    assert len(list(folder.glob("syntax-*.pickle"))) == 2

@@ -200,3 +200,11 @@ def test_a_report_s_numpy_numbers_become_python_numbers() -> None:
 
 def json_of(value: dict[str, Any]) -> Any:
     return json.loads(json.dumps(value, default=verdicts.plain))
+
+
+def test_the_verdicts_of_the_files_verified_last_are_kept(
+        folder: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(verdicts, "KEEP", 2)
+    for name in ("a.mcl", "b.mcl", "c.mcl"):
+        verdicts.verified(compile_file(mission(tmp_path, SHORT, name)), "auto", 10, 1 << 30)
+    assert len(list(folder.glob("verdict-*.pickle"))) == 2
