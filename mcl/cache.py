@@ -80,6 +80,31 @@ def source_files(roots: Iterable[Path]) -> list[bytes]:
     return [part for path in found for part in (path.name.encode(), path.read_bytes())]
 
 
+def code_digest(roots: Iterable[Path]) -> str:
+    """The SHA-256 (hex) of the Python files at ``roots`` as :func:`source_files` lists them,
+    names and contents: the code part of a key. Each file's content is hashed once a process
+    while its size and modification time stay the same (the keys of one call share most of
+    their code: 0.7 MB read once instead of three times)."""
+    digest = SHA256(b"code")
+    for root in roots:
+        for path in sorted(root.rglob("*.py")) if root.is_dir() else [root]:
+            digest.update(path.name.encode() + b"\0" + file_digest(path))
+    return str(digest.hexdigest())
+
+
+FILE_DIGESTS: dict[tuple[str, int, int], bytes] = {}  # (path, mtime, size) -> SHA-256
+
+
+def file_digest(path: Path) -> bytes:
+    """The SHA-256 of a file's content, from :data:`FILE_DIGESTS` while it is unchanged."""
+    stat = path.stat()
+    known = (str(path), stat.st_mtime_ns, stat.st_size)
+    found = FILE_DIGESTS.get(known)
+    if found is None:
+        found = FILE_DIGESTS[known] = bytes(SHA256(path.read_bytes()).digest())
+    return found
+
+
 def cached(name: str, parts: Callable[[], Iterable[str | bytes]], build: Callable[[], T],
            save: Callable[[T, IO[bytes]], None] | None = None,
            load: Callable[[IO[bytes]], T] | None = None) -> T:

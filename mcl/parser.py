@@ -147,7 +147,7 @@ def parse_unit(source: Source) -> ast.Mission | ast.Fleet:
 
     unit = cache.cached(f"syntax-{where}", lambda: [
         "syntax 1", source.name, source.text, grammars.grammar_text("mcl.lark"),
-        grammars.lark_version(), *cache.source_files(TREE_CODE)], parse)
+        grammars.lark_version(), cache.code_digest(TREE_CODE)], parse)
     if parsed:
         cache.prune("syntax-", KEEP_TREES_OF)
     return unit

@@ -123,7 +123,7 @@ def load_sources(sources: list[Source]) -> Library:
 
     def parts() -> list[str | bytes]:
         return [*(f"{s.name}\0{s.text}" for s in sources), grammars.grammar_text("tasks.lark"),
-                grammars.lark_version(), *cache.source_files(BUILDER_CODE)]
+                grammars.lark_version(), cache.code_digest(BUILDER_CODE)]
 
     name = "library-" + "+".join(s.name.removeprefix(SHIPPED_PREFIX).removesuffix(".tasks")
                                  for s in sources)

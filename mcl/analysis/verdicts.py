@@ -91,7 +91,7 @@ def verified(compiled: Compiled, method: str, max_markings: int, max_bytes: int,
 
     def parts() -> list[str | bytes]:
         return [FORMAT, method, str(max_markings), str(max_bytes), mission_bytes(compiled),
-                *cache.source_files(VERIFIER_CODE)]
+                cache.code_digest(VERIFIER_CODE)]
 
     if len(compiled.net.transitions) > MAX_TRANSITIONS:
         return build()  # its key would cost what verifying it does

@@ -145,3 +145,24 @@ def test_prune_keeps_the_entries_written_last(folder: Path) -> None:
     assert len(list(folder.glob("other-*"))) == 1  # another kind is left
     cache.prune("kind-", 0)
     assert not list(folder.glob("kind-*"))
+
+
+def test_the_code_digest_changes_with_a_file_and_reads_each_file_once(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "pkg").mkdir()
+    module = tmp_path / "pkg" / "a.py"
+    module.write_text("A = 1\n", "utf-8")
+    reads: list[Path] = []
+    real = Path.read_bytes
+
+    def read_bytes(self: Path) -> bytes:
+        reads.append(self)
+        return real(self)
+
+    monkeypatch.setattr(Path, "read_bytes", read_bytes)
+    first = cache.code_digest([tmp_path / "pkg"])
+    assert cache.code_digest([tmp_path / "pkg"]) == first and reads == [module]
+    module.write_text("A = 22\n", "utf-8")
+    assert cache.code_digest([tmp_path / "pkg"]) != first and len(reads) == 2
+    (tmp_path / "pkg" / "b.py").write_text("", "utf-8")
+    assert len({first, cache.code_digest([tmp_path / "pkg"])}) == 2
