@@ -5,8 +5,10 @@ is exit 2 and one line, never a traceback nor a value that means nothing (``--se
 from __future__ import annotations
 
 import argparse
+import os
 import re
-from typing import NoReturn
+import sys
+from typing import Any, NoReturn
 
 from mission.exits import Exit
 
@@ -14,11 +16,41 @@ MAX_SEED = 2**64 - 1  # the simulated vehicle's random generators take any seed 
 MAX_SPEED = 1000.0  # mcl vehicle --speed, times wall time: past it no vehicle keeps its clock
 
 
+class Formatter(argparse.HelpFormatter):
+    """argparse's help formatter, the terminal's width found as shutil finds it but without
+    importing shutil (with bz2 and lzma, 5 ms of every command's start: argparse makes a
+    formatter for each option it adds)."""
+
+    def __init__(self, prog: str, indent_increment: int = 2, max_help_position: int = 24,
+                 width: int | None = None) -> None:
+        super().__init__(prog, indent_increment, max_help_position,
+                         terminal_width() - 2 if width is None else width)
+
+
+def terminal_width() -> int:
+    """The terminal's columns as ``shutil.get_terminal_size().columns`` gives them: $COLUMNS,
+    else the size of the terminal of standard output, else 80."""
+    try:
+        columns = int(os.environ.get("COLUMNS", "0"))
+    except ValueError:
+        columns = 0
+    if columns <= 0:
+        try:
+            columns = os.get_terminal_size(sys.__stdout__.fileno()).columns  # type: ignore[union-attr]
+        except (AttributeError, ValueError, OSError):
+            columns = 0
+    return columns or 80
+
+
 class Parser(argparse.ArgumentParser):
     """The command line of every command (mclc, each mcl subcommand, app.pnml_report): an
     ArgumentParser whose refusal is one line, ``PROG: error: MESSAGE``, exit 2 (invalid input), like every
     other refusal, instead of argparse's usage (eight lines for ``mcl run``) above it. A
     message that names no argument (one missing, one not known) gets a one-line hint."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", Formatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         line = f"{self.prog}: error: {' '.join(message.split())}\n"

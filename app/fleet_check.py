@@ -46,7 +46,8 @@ def check_fleet(path: str | Source, args: argparse.Namespace, fmt: str
     for name, compiled in fleet.vehicles.items():
         one, vehicle_report = verify_and_report(
             compiled, each, fmt, title=f"vehicle {name}" + (
-                f": mission {compiled.mission.name}" if compiled.mission.name else ""))
+                f": mission {compiled.mission.name}" if compiled.mission.name else ""),
+            part=name)
         vehicle_report["vehicle"] = name
         report["vehicles"].append(vehicle_report)
         status = max(status, one, key=SEVERITY.index)

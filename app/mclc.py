@@ -14,7 +14,6 @@ import json
 import os
 import stat
 import sys
-import traceback
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ from typing import Any
 from diagnostics import Diagnostic, MclError, Span, read_source
 from mcl.api import Compiled, compile_source, parse_params
 from mcl.fleet import is_fleet
+from mcl.parser import trees_kept
 
 from app.arguments import memory_size
 from app.fleet_check import check_fleet
@@ -175,7 +175,7 @@ def main(argv: list[str] | None = None, prog: str = "mclc") -> int:
     open_standard_streams()
     worst = [Exit.OK]
     try:
-        with watched_stdout():
+        with watched_stdout(), trees_kept():  # mclc parses the same files call after call
             return _main(argv, worst, prog)
     except BrokenPipeError as exc:
         stdout_closed()
@@ -222,6 +222,8 @@ def _main(argv: list[str] | None, so_far: list[Exit], prog: str) -> int:
             raise
         except Exception as exc:  # a bug of ours: say so plainly, never a bare traceback
             if args.debug:
+                import traceback  # lazy for start-up speed: only for --debug (3 ms)
+
                 traceback.print_exc()
             print(f"{path}: internal error: {type(exc).__name__}: {exc}\n"
                   "  hint: this is a bug in mclc; rerun with --debug and report it",
@@ -267,9 +269,12 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str,
 
 
 def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:
-    from petri.formats.dot import to_dot
-
     net = compiled.net
+
+    def to_dot(net: Any, view: str) -> str:
+        from petri.formats.dot import to_dot as dot  # lazy for start-up speed: --dot only
+
+        return dot(net, view)
 
     def text(content: Callable[[], str]) -> Callable[[str], None]:
         def write(path: str) -> None:

@@ -13,6 +13,7 @@ from collections.abc import Callable
 from typing import Any
 
 from diagnostics import Diagnostic
+from mcl.analysis import verdicts
 from mcl.api import Compiled
 from petri.net import Net
 
@@ -24,21 +25,15 @@ GraphWriter = Callable[[str, str, Net, Any, str], None]  # mclc's --graphml writ
 
 def verify_and_report(compiled: Compiled, args: argparse.Namespace, fmt: str,
                       write_graph: GraphWriter | None = None,
-                      title: str | None = None) -> tuple[Exit, dict[str, Any]]:
+                      title: str | None = None, part: str = "") -> tuple[Exit, dict[str, Any]]:
     """Verify a compiled mission as ``args`` ask (``--no-verify``, ``--method``, limits) and
-    report it; in text, print it under ``title`` (default ``FILE: mission NAME``)."""
+    report it; in text, print it under ``title`` (default ``FILE: mission NAME``). ``part``
+    names the mission within its file when a file holds several (a fleet's vehicle)."""
     report = summary(compiled)
     status = Exit.OK
     if not args.no_verify:
-        # loaded here, not at the top: mclc starts faster when it only compiles
-        from mcl.analysis.verification import verify_mission
-
-        verdict = verify_mission(compiled, args.method, max_markings=args.max_markings,
-                                 max_bytes=args.max_memory, keep_graph=args.graphml is not None)
-        if args.graphml is not None and write_graph is not None:
-            write_graph(compiled.source.name, args.graphml, compiled.net, verdict.space,
-                        "--method auto took the structural route")
-        report["verification"] = verdict.to_json()
+        verdict = verify(compiled, args, write_graph, part)
+        report["verification"] = verdict.report
         status = (Exit.OK if verdict.ok else Exit.FAILED if verdict.failed
                   else Exit.UNDECIDED)
         report["status"] = ("verified" if verdict.ok else "property-fails" if verdict.failed
@@ -55,6 +50,22 @@ def verify_and_report(compiled: Compiled, args: argparse.Namespace, fmt: str,
         if args.limits.asked:
             print("\n".join([f"  FAIL {f}" for f in bounds.failures] + bounds.lines))
     return status, report
+
+
+def verify(compiled: Compiled, args: argparse.Namespace, write_graph: GraphWriter | None,
+           part: str = "") -> verdicts.Report:
+    """The verification's report: from the cache when the same mission, options and code were
+    verified before (mcl/analysis/verdicts.py), but with ``--graphml``, which writes the graph
+    a verification explores."""
+    if args.graphml is None or write_graph is None:
+        return verdicts.verified(compiled, args.method, args.max_markings, args.max_memory, part)
+    from mcl.analysis.verification import verify_mission  # numpy: loaded when needed
+
+    verdict = verify_mission(compiled, args.method, max_markings=args.max_markings,
+                             max_bytes=args.max_memory, keep_graph=True)
+    write_graph(compiled.source.name, args.graphml, compiled.net, verdict.space,
+                "--method auto took the structural route")
+    return verdicts.Report.of(verdict)
 
 
 def summary(compiled: Compiled) -> dict[str, Any]:

@@ -6,10 +6,10 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from lark import Token, Tree
 
 from diagnostics import Source, Span, error
 from mcl import ast
+from mcl.syntax import Token, Tree
 
 
 def token_span(source: Source, tok: Token) -> Span:

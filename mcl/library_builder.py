@@ -8,7 +8,6 @@ that collide) is checked by the loader, mcl/tasklib.py.
 
 from __future__ import annotations
 
-from lark import Token, Tree
 
 from diagnostics import Source, Span, error
 
@@ -25,6 +24,7 @@ from mcl.declarations import (
 )
 from mcl.ast_builder import AstBuilder
 from mcl.parser import suggest
+from mcl.syntax import Token, Tree
 from mcl.values import FIELDS, KINDS, NUMERIC, UNITS, Range, check, limits, to_text
 
 # The event sources the player itself raises (mcl.declarations.BUILTIN_SOURCES), with what:

@@ -8,22 +8,22 @@ wrong in the same way); the same table is exercised by the tests.
 from __future__ import annotations
 
 import difflib
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from functools import lru_cache
+from pathlib import Path
+from typing import TYPE_CHECKING
 
-from lark import (
-    Lark,
-    Token,
-    Tree,
-    UnexpectedCharacters,
-    UnexpectedEOF,
-    UnexpectedInput,
-    UnexpectedToken,
-)
-
+import diagnostics
 from diagnostics import MclError, Source, Span, error, read_source
 
-from mcl import ast, grammars
+from mcl import ast, cache, grammars
 from mcl.ast_builder import AstBuilder, token_span
+from mcl.syntax import Token, Tree
+
+if TYPE_CHECKING:
+    from lark import Lark, UnexpectedInput
 
 KEYWORDS = ("MISSION", "PARAM", "USES", "TRY", "CATCH", "DO", "PARALLEL", "AND", "OR", "IF", "THEN",
             "ELSE", "WHILE", "ON", "STOP")
@@ -103,9 +103,15 @@ KNOWN_MISTAKES: dict[str, tuple[str, str, list[str]]] = {
 
 
 @lru_cache(maxsize=1)
+def mission_parser() -> grammars.Standalone:
+    """The parser of ``mcl/grammar/mcl.lark`` (lark's standalone module, mcl/grammars.py) and
+    the classes of the errors it raises."""
+    return grammars.standalone("mcl.lark", parser="lalr", propagate_positions=True,
+                               maybe_placeholders=True, start=["start", "value"])
+
+
 def _lark() -> Lark:
-    return grammars.parser("mcl.lark", parser="lalr", propagate_positions=True,
-                           maybe_placeholders=True, start=["start", "value"])
+    return mission_parser().parser
 
 
 def parse_file(path: str) -> ast.Mission:
@@ -126,13 +132,55 @@ def parse(source: Source) -> ast.Mission:
 
 
 def parse_unit(source: Source) -> ast.Mission | ast.Fleet:
-    """Parse a mission file or a fleet file (docs/LANGUAGE.md, "Fleets")."""
+    """Parse a mission file or a fleet file (docs/LANGUAGE.md, "Fleets"); within
+    :func:`trees_kept`, a text parsed before is loaded from the cache instead."""
     if not source.text.strip():
         raise error(source, "the file is empty", source.span(1, 1),
                     "a mission file holds MISSION { ... }", code="empty-file")
+    if not KEEP_TREES:
+        return parse_text(source)
+    where = cache.SHA256(os.path.abspath(source.name).encode()).hexdigest()[:16]
+    parsed: list[ast.Mission | ast.Fleet] = []
+
+    def parse() -> ast.Mission | ast.Fleet:
+        parsed.append(parse_text(source))
+        return parsed[0]
+
+    unit = cache.cached(f"syntax-{where}", lambda: [
+        "syntax 1", source.name, source.text, grammars.grammar_text("mcl.lark"),
+        grammars.lark_version(), cache.code_digest(TREE_CODE)], parse)
+    if parsed:
+        cache.prune("syntax-", KEEP_TREES_OF)
+    return unit
+
+
+# Whether parse_unit keeps the syntax tree of each text in the cache (mcl/cache.py), one entry
+# per file (for the KEEP_TREES_OF files parsed last), and loads it from there when the file's
+# text, the grammar, lark's version and the code are those it was parsed with: on within
+# trees_kept() (mclc, which parses the same files call after call: about a fifth of its time
+# for the dam), off elsewhere (an editor's or a test's texts are parsed once each, and would
+# only fill the cache).
+KEEP_TREES = False
+KEEP_TREES_OF = 500  # files whose trees are kept: those parsed last
+TREE_CODE = (Path(__file__).parent, Path(diagnostics.__file__).parent)  # the parser, the AST
+
+
+@contextmanager
+def trees_kept() -> Iterator[None]:
+    """Within it, parse_unit keeps syntax trees in the cache (:data:`KEEP_TREES`)."""
+    global KEEP_TREES
+    before, KEEP_TREES = KEEP_TREES, True
+    try:
+        yield
+    finally:
+        KEEP_TREES = before
+
+
+def parse_text(source: Source) -> ast.Mission | ast.Fleet:
+    """Parse a mission file or a fleet file, never from the cache."""
     try:
         tree = _lark().parse(source.text, start="start")
-    except UnexpectedInput as exc:
+    except mission_parser().unexpected_input as exc:
         raise _friendly(source, exc) from None
     check_depth(source, tree)
     return AstBuilder(source).unit(tree)
@@ -148,9 +196,9 @@ def parse_value(text: str, origin: str = "<command line>", line: int = 1,
     source = Source(origin, padded)
     try:
         tree = _lark().parse(padded, start="value")
-    except UnexpectedInput as exc:
+    except mission_parser().unexpected_input as exc:
         token = getattr(exc, "token", None)
-        ended = isinstance(exc, UnexpectedEOF) or getattr(token, "type", "") == "$END"
+        ended = isinstance(exc, mission_parser().unexpected_eof) or getattr(token, "type", "") == "$END"
         at = (source.span(line, column + len(text.rstrip())) if ended or exc.line < 1
               else source.span(exc.line, max(exc.column, 1)))  # at the end: after the value
         raise error(source, f"not a value: {text!r}", at,
@@ -162,8 +210,9 @@ def parse_value(text: str, origin: str = "<command line>", line: int = 1,
 
 # -- friendly syntax errors ------------------------------------------------------------------
 def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
+    errors = mission_parser()
     line, col = max(exc.line, 1), max(exc.column, 1)
-    if isinstance(exc, UnexpectedCharacters):
+    if isinstance(exc, errors.unexpected_characters):
         pos = exc.pos_in_stream or 0
         char = source.text[pos] if pos < len(source.text) else ""
         if source.text.startswith("/*", pos):
@@ -172,7 +221,8 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
         return error(source, f"unexpected character {char!r}", source.span(line, col),
                      "MCL uses letters, digits, _ ( ) [ ] { } , ; = . and comments",
                      code="bad-character")
-    token = exc.token if isinstance(exc, (UnexpectedToken, UnexpectedEOF)) else None
+    token = (exc.token if isinstance(exc, (errors.unexpected_token, errors.unexpected_eof))
+             else None)
     previous = _token_before(source, line, col)
     # Lower-case keywords: "try {" reads as a task named try followed by '{'.
     if isinstance(token, Token) and previous is not None and previous.type == "NAME":
@@ -203,7 +253,8 @@ def _friendly(source: Source, exc: UnexpectedInput) -> MclError:
         if code == "text-after-mission" and isinstance(token, Token):
             span = token_span(source, token)
         return error(source, message, span, hint, code=code)
-    if isinstance(exc, UnexpectedEOF) or (isinstance(token, Token) and token.type == "$END"):
+    if isinstance(exc, errors.unexpected_eof) or (isinstance(token, Token)
+                                                   and token.type == "$END"):
         return error(source, "unexpected end of file", _end_span(source),
                      "a '}' or an item may be missing", code="unexpected-eof")
     assert isinstance(token, Token)
@@ -275,8 +326,9 @@ def known_mistake(exc: UnexpectedInput) -> str | None:
 
     Unlike lark's ``match_examples``, which also asks for the same depth of the parser's stack,
     this does not depend on what comes before the mistake (PARAM lines, enclosing blocks)."""
+    errors = mission_parser()
     state = exc.state
-    if state is None or not isinstance(exc, (UnexpectedToken, UnexpectedEOF)):
+    if state is None or not isinstance(exc, (errors.unexpected_token, errors.unexpected_eof)):
         return None
     accepts = getattr(exc, "accepts", None)
     candidate = None
@@ -284,7 +336,7 @@ def known_mistake(exc: UnexpectedInput) -> str | None:
         for example in examples:
             try:
                 _lark().parse(example, start="start")
-            except (UnexpectedToken, UnexpectedEOF) as seen:
+            except (errors.unexpected_token, errors.unexpected_eof) as seen:
                 if (seen.state is None or seen.state.position != state.position
                         or getattr(seen, "accepts", None) != accepts):
                     continue
@@ -321,7 +373,7 @@ def _token_before(source: Source, line: int, col: int) -> Token | None:
             if (tok.line, tok.column) >= (line, col):
                 break
             previous = tok
-    except UnexpectedInput:
+    except mission_parser().unexpected_input:
         pass
     return previous
 

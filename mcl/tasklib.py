@@ -14,11 +14,8 @@ from __future__ import annotations
 
 import os
 from functools import lru_cache
-from importlib import resources
 from pathlib import Path
-
-import lark
-from lark import Lark, Token, Tree, UnexpectedInput
+from typing import TYPE_CHECKING
 
 import diagnostics
 from diagnostics import Diagnostic, MclError, Source, Span, error, file_error, read_source
@@ -41,7 +38,11 @@ from mcl.declarations import (
 )
 from mcl.library_builder import LibraryBuilder
 from mcl.parser import check_depth, suggest
+from mcl.syntax import Token, Tree
 from mcl.values import UNITS, check, limits
+
+if TYPE_CHECKING:
+    from lark import Lark, UnexpectedInput
 
 # The declarations, importable from here too (mcl.tasklib.Library, ...).
 __all__ = ["ACTION_KINDS", "BUILTIN_SOURCES", "DEFAULT_DOFS", "SHIPPED", "ActionSpec",
@@ -93,7 +94,8 @@ def not_a_library(path: str) -> str | None:
 
 def shipped_source(name: str) -> Source:
     """A file shipped in mcl/tasks/ (e.g. ``core.tasks``) as a source."""
-    text = resources.files("mcl").joinpath("tasks", name).read_text("utf-8")
+    # beside this module (mcl is installed as files): importlib.resources cost 10 ms a call
+    text = (Path(__file__).parent / "tasks" / name).read_text("utf-8")
     return Source(SHIPPED_PREFIX + name, text)
 
 
@@ -121,7 +123,7 @@ def load_sources(sources: list[Source]) -> Library:
 
     def parts() -> list[str | bytes]:
         return [*(f"{s.name}\0{s.text}" for s in sources), grammars.grammar_text("tasks.lark"),
-                lark.__version__, *cache.source_files(BUILDER_CODE)]
+                grammars.lark_version(), cache.code_digest(BUILDER_CODE)]
 
     name = "library-" + "+".join(s.name.removeprefix(SHIPPED_PREFIX).removesuffix(".tasks")
                                  for s in sources)
@@ -161,9 +163,11 @@ def build_library(sources: list[Source]) -> Library:
 def parse_library(source: Source) -> Tree[Token]:
     """The parse tree of a ``.tasks`` file; an :class:`MclError` at the first syntax error
     (what it declares is not checked: see :func:`build_library`)."""
+    import lark  # lazy for start-up speed: the shipped libraries come from the cache
+
     try:
         tree = _lark().parse(source.text)
-    except UnexpectedInput as exc:
+    except lark.UnexpectedInput as exc:
         raise error(source, "task library: " + _syntax_message(exc),
                     source.span(max(exc.line, 1), max(exc.column, 1)),
                     "see mcl/grammar/tasks.lark and docs/TASKS.md for the syntax",

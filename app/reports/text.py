@@ -40,6 +40,9 @@ def verification_text(report: dict[str, Any]) -> str:
         names = [r["property"] for r in report["properties"] if r["method"] == m]
         lines.append(f"  method for {', '.join(names)}: {m}" if len(methods) > 1
                      else f"  method: {m}")
+    if report.get("cached"):
+        lines.append("  (the verdict of an earlier call: the same net, options and code; "
+                     "MCL_CACHE_DIR= verifies again)")
     return "\n".join(lines)
 
 

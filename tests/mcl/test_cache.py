@@ -133,3 +133,36 @@ def test_an_entry_another_user_owns_is_not_loaded(folder: Path,
     assert cache.cached("thing", lambda: ["a"], build)["call"] == 2  # type: ignore[index]
     monkeypatch.setattr(os, "getuid", lambda: owner)
     assert cache.cached("thing", lambda: ["a"], build)["call"] == 2  # type: ignore[index]
+
+
+def test_prune_keeps_the_entries_written_last(folder: Path) -> None:
+    for i in range(5):
+        cache.cached(f"kind-{i}", lambda: ["a"], Builder(i))
+        os.utime(next(folder.glob(f"kind-{i}-*.pickle")), ns=(i * 10**9, i * 10**9))
+    cache.cached("other", lambda: ["a"], lambda: 0)
+    cache.prune("kind-", 2)
+    assert sorted(p.name.split("-")[1] for p in folder.glob("kind-*")) == ["3", "4"]
+    assert len(list(folder.glob("other-*"))) == 1  # another kind is left
+    cache.prune("kind-", 0)
+    assert not list(folder.glob("kind-*"))
+
+
+def test_the_code_digest_changes_with_a_file_and_reads_each_file_once(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "pkg").mkdir()
+    module = tmp_path / "pkg" / "a.py"
+    module.write_text("A = 1\n", "utf-8")
+    reads: list[Path] = []
+    real = Path.read_bytes
+
+    def read_bytes(self: Path) -> bytes:
+        reads.append(self)
+        return real(self)
+
+    monkeypatch.setattr(Path, "read_bytes", read_bytes)
+    first = cache.code_digest([tmp_path / "pkg"])
+    assert cache.code_digest([tmp_path / "pkg"]) == first and reads == [module]
+    module.write_text("A = 22\n", "utf-8")
+    assert cache.code_digest([tmp_path / "pkg"]) != first and len(reads) == 2
+    (tmp_path / "pkg" / "b.py").write_text("", "utf-8")
+    assert len({first, cache.code_digest([tmp_path / "pkg"])}) == 2
