@@ -146,7 +146,7 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
         if getattr(args, option):
             raise file_error(f"--{option}", f"--{option}: not for a fleet (each VEHICLE says "
                              "its own USES and PARAM)", "leave it out", "fleet-option")
-    for option in ("mcap", "foxglove", "realtime"):
+    for option in ("mcap", "foxglove"):
         if getattr(args, option):
             raise file_error(f"--{option}", f"--{option}: not for a fleet yet (one mission's "
                              "run only)", "leave it out", "fleet-option")
@@ -169,7 +169,8 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
         result = run_fleet(fleet, vehicles, loss=loss, seed=args.seed,
                            log_dir=folder, header=header, max_time=args.max_time,
                            stop=stops.request, verify=not args.no_verify,
-                           observers=timelines, signer=signer, during=stops)
+                           observers=timelines, signer=signer, during=stops,
+                           speed=1.0 if args.realtime else None)
     except NotVerified as exc:
         stops.restore()
         print(f"{args.mission}: not verified ({', '.join(exc.failed)}): refusing to run it\n"
