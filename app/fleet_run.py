@@ -2,7 +2,8 @@
 (docs/FLEET_RUN.md).
 
     mcl run FLEET.mcl [--loss P | --loss CHANNEL=P ...] [--seed N] [--log-dir DIR]
-                      [--max-time SECONDS] [--quiet] [--no-verify]
+                      [--max-time SECONDS] [--realtime] [--mcap FILE] [--quiet]
+                      [--no-verify]
 
 Every vehicle of the fleet runs its mission on a simulated vehicle of its own (vehicle ``i``,
 in the fleet's order, gets the seed ``N + i``; the one its task library names in
@@ -24,16 +25,19 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from diagnostics import file_error
+from diagnostics import MclError, file_error
 from mcl.fleet import CompiledFleet, compile_fleet_file
 from mission.exits import Exit
 from mission.fleet import FleetResult, run_fleet
+from mission.mcap_channels import track_of_poses
+from mission.mcap_export import Track, track_of_survey
 from mission.mcm_vehicles import mcm_vehicles
 from mission.run import NotVerified
 from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
 
+from app.mclc import check_output
 from app.safe_exit import Output, ReportCut, Stops
 from app.vehicles.kind import Invalid
 
@@ -146,10 +150,11 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
         if getattr(args, option):
             raise file_error(f"--{option}", f"--{option}: not for a fleet (each VEHICLE says "
                              "its own USES and PARAM)", "leave it out", "fleet-option")
-    for option in ("mcap", "foxglove"):
-        if getattr(args, option):
-            raise file_error(f"--{option}", f"--{option}: not for a fleet yet (one mission's "
-                             "run only)", "leave it out", "fleet-option")
+    if args.foxglove:
+        raise file_error("--foxglove", "--foxglove: not for a fleet yet (one mission's run "
+                         "only)", "leave it out", "fleet-option")
+    if args.mcap is not None:
+        check_output(args.mcap, "--mcap")
     fleet = compile_fleet_file(args.mission, require_values=True)
     for d in fleet.warnings:
         print(d.format(), file=sys.stderr)
@@ -181,11 +186,45 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
         raise
     try:  # a signal now only cuts the report short: the end records stand
         summary(args.mission, fleet, result, out, vehicles)
+        if args.mcap is not None:
+            write_mcap(Path(args.mcap), result, vehicles, out)
     except ReportCut as cut:
         print(cut.line(), file=sys.stderr)
     finally:
         stops.restore()
     return result.exit
+
+
+def write_mcap(path: Path, result: FleetResult, vehicles: dict[str, Vehicle], out: Output
+               ) -> None:
+    """``--mcap``: the fleet's run as one MCAP file, from its logs and channel record once
+    written: each vehicle under ``/NAME`` with its simulated track, the channels under
+    ``/channel/NAME`` (docs/MCAP.md); why not, on one line."""
+    from app.export import export_fleet  # here for start-up speed: only a run that asks
+
+    logs = [r.log for r in result.runs.values() if r.log is not None]
+    try:
+        written = export_fleet([Path(log) for log in logs], path, images=False,
+                               record=result.record, tracks=tracks_of(vehicles))
+    except MclError as exc:
+        print(f"mcl run: --mcap {path}: not written: {exc.format().splitlines()[0]}",
+              file=sys.stderr)
+        return
+    out.say(f"  mcap: {written.line()}")
+
+
+def tracks_of(vehicles: dict[str, Vehicle]) -> dict[str, Track]:
+    """Each simulated vehicle's track, by name: the simulated Ictineu's survey, or the true
+    poses a vehicle of paper 003 keeps; none for a vehicle that keeps neither."""
+    tracks = {}
+    for name, vehicle in vehicles.items():
+        survey = getattr(vehicle.stack, "survey", None)
+        poses = getattr(vehicle.modem, "track", None)
+        if survey is not None:
+            tracks[name] = track_of_survey(survey)
+        elif isinstance(poses, list):
+            tracks[name] = track_of_poses(poses)
+    return tracks
 
 
 class Named:
