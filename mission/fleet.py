@@ -276,7 +276,9 @@ def losses(fleet: FleetSpec, loss: float | Mapping[str, float]) -> dict[str, flo
 
 def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float |
               Mapping[str, float] = 0.0, seed: int = 1, log_dir: str | Path | None = None,
-              header: Mapping[str, Any] | None = None, max_time: float | None = None,
+              header: Mapping[str, Any] | None = None,
+              headers: Mapping[str, Mapping[str, Any]] | None = None,
+              max_time: float | None = None,
               stop: Callable[[], Stop | str | None] | None = None, verify: bool = True,
               observers: Mapping[str, list[Callable[[Any], None]]] | None = None,
               signer: Signer | None = None,
@@ -286,6 +288,8 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
     clock for all (this module's doc). ``loss``: the loss probability of every LOSSY channel,
     or by channel name; ``seed``: the channels' random stream; ``log_dir``: a run log per
     vehicle (``NAME.jsonl``) and the channel record (``channels.jsonl``) go there;
+    ``header``: what every vehicle's log header says, ``headers``: what one vehicle's says
+    besides (its own seed), by name;
     ``observers``: each vehicle's extra observers (a timeline); ``speed``: the one clock
     runs at this many times wall time (1.0: ``--realtime``; None: as fast as it can); the
     rest as :func:`mission.run_mission`. Raises :class:`NotVerified` (a vehicle's mission not verified
@@ -325,8 +329,9 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
 
     def one(name: str) -> None:
         try:
+            about = {**(header or {}), **(headers or {}).get(name, {})}
             runs[name] = run_vehicle(name, fleet, vehicles[name], clock, carrier, stops,
-                                     folder, header, max_time, observers, signer)
+                                     folder, about, max_time, observers, signer)
             if runs[name].status == "error":
                 stops.fail(name, f"failed: {runs[name].reason}")
         except BaseException as exc:  # noqa: BLE001 - the others stop safely, then it goes on
