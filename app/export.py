@@ -1,6 +1,6 @@
 """``mcl export``: a run log as an MCAP file for Foxglove (docs/MCAP.md).
 
-    mcl export RUN.jsonl [RUN2.jsonl ...] --mcap OUT.mcap [--no-images]
+    mcl export RUN.jsonl [RUN2.jsonl ... channels.jsonl] --mcap OUT.mcap [--no-images]
 
 The log is read and its digest chain (and signatures) verified first
 (petri/execution/runlog.py): a log that does not verify is refused (``RUN.jsonl:N: error:
@@ -9,7 +9,9 @@ the run wrote beside it hold: every record as a ``foxglove.Log`` with its MCL li
 call's state, the camera's images (``RUN.images/``) with the true and estimated pose of each,
 and as attachments the mission, its task libraries and the mosaic. Several logs (a fleet's
 runs) go into one file, each vehicle's topics, metadata and attachments under ``/NAME``, its
-log's file name without ``.jsonl``. ``mcl run --mcap`` writes
+log's file name without ``.jsonl``; a fleet's channel record among them (its header says
+so, whatever its name) is verified too and its events go under ``/channel/NAME``
+(mission/mcap_channels.py). ``mcl run --mcap`` writes
 the same file at the end of a run, with the simulated vehicle's whole track. Exit statuses
 (written, invalid input): docs/EXIT.md.
 """
@@ -26,7 +28,10 @@ from typing import Any
 from diagnostics import MclError, Source
 from mcl import parser, tasklib
 from mission.exits import Exit
-from mission.mcap_export import Run, Track, Written, camera_index, write_fleet
+from mission.channels import RECORD_FORMAT
+from mission.fleet_evidence import read_record
+from mission.mcap_channels import channel_messages, fleet_metadata
+from mission.mcap_export import Run, Shared, Track, Written, camera_index, write_fleet
 from mosaic.images import images_folder
 from petri.execution.replay import malformed
 from petri.execution.runlog import LogError, read_log, verify
@@ -45,7 +50,8 @@ def _parser() -> argparse.ArgumentParser:
                                 "as an MCAP file that Foxglove opens (docs/MCAP.md).")
     p.add_argument("logs", metavar="RUN.jsonl", nargs="+",
                    help="a run log; several (a fleet's): each vehicle under /NAME, its log's "
-                        "file name without .jsonl")
+                        "file name without .jsonl; a fleet's channel record (channels.jsonl): "
+                        "its messages under /channel/NAME")
     p.add_argument("--mcap", required=True, metavar="OUT.mcap", help="the MCAP file to write")
     p.add_argument("--no-images", action="store_true",
                    help="leave the camera's images out (a much smaller file)")
@@ -61,11 +67,18 @@ def main(argv: list[str] | None = None) -> int:
 
 def _export(args: argparse.Namespace) -> int:
     check_output(args.mcap, "--mcap")  # as given: Path("") would be the folder "."
-    logs = [Path(log) for log in args.logs]
-    if len(logs) == 1:
+    given = [Path(log) for log in args.logs]
+    records = [p for p in given if is_channel_record(p)]
+    logs = [p for p in given if p not in records]
+    if len(records) > 1 or not logs:
+        raise MclError(f"{records[-1]}: " + ("two channel records: give one fleet's logs "
+                       "and its one record" if logs else "a channel record alone: give the "
+                       "fleet's run logs with it"), code="fleet")
+    if len(logs) == 1 and not records:
         written = export(logs[0], Path(args.mcap), images=not args.no_images)
     else:
-        written = export_fleet(logs, Path(args.mcap), images=not args.no_images)
+        written = export_fleet(logs, Path(args.mcap), images=not args.no_images,
+                               record=records[0] if records else None)
     print(f"{', '.join(args.logs)}: exported to {written.line()}")
     return Exit.OK
 
@@ -81,9 +94,13 @@ def export(log: Path, out: Path, track: Track | None = None, images: bool = True
     return _written(out, [run])
 
 
-def export_fleet(logs: list[Path], out: Path, images: bool = True) -> Written:
+def export_fleet(logs: list[Path], out: Path, images: bool = True, record: Path | None = None,
+                 tracks: dict[str, Track] | None = None) -> Written:
     """A fleet's run logs (each verified) in one MCAP file, each vehicle's under ``/NAME``:
-    its log's file name without ``.jsonl``, which must differ from log to log."""
+    its log's file name without ``.jsonl``, which must differ from log to log; ``record``:
+    the fleet's channel record (verified: its events on ``/channel/NAME``, its header as
+    the ``mcl.fleet`` metadata, the record attached); ``tracks``: a vehicle's track by name,
+    when the caller has one (``mcl run FLEET.mcl --mcap``)."""
     names = [log.stem for log in logs]
     twice = sorted({name for name in names if names.count(name) > 1})
     if twice:
@@ -93,9 +110,26 @@ def export_fleet(logs: list[Path], out: Path, images: bool = True) -> Written:
     for log in logs:
         run = _run(log, images)
         run.namespace = log.stem
+        if log.stem in (tracks or {}):
+            run.track = (tracks or {})[log.stem]
         runs.append(run)
+    shared = Shared()
+    if record is not None:
+        lines = read_record(record)
+        shared = Shared(channel_messages(lines), {"mcl.fleet": fleet_metadata(lines)},
+                        [(record.name, record.read_bytes())])
     check_output(str(out), "--mcap")
-    return _written(out, runs)
+    return _written(out, runs, shared)
+
+
+def is_channel_record(path: Path) -> bool:
+    """Whether ``path`` is a fleet's channel record: its first line's header says so."""
+    try:
+        with open(path, "rb") as f:
+            first = f.readline(1 << 16)
+    except OSError:
+        return False  # the run log's own reading says why
+    return f'"format":"{RECORD_FORMAT}"'.encode() in first
 
 
 def _run(log: Path, images: bool) -> Run:
@@ -110,9 +144,9 @@ def _run(log: Path, images: bool) -> Run:
     return Run(records, indexed, pictures if images else [], attachments(records[0], log))
 
 
-def _written(out: Path, runs: list[Run]) -> Written:
+def _written(out: Path, runs: list[Run], shared: Shared | None = None) -> Written:
     try:
-        return write_fleet(out, runs)
+        return write_fleet(out, runs, shared)
     except OSError as exc:  # a full disk, no permission, an image removed meanwhile
         raise OutputError(str(out), "--mcap", f"{exc.strerror or exc}"
                           + (f" ({exc.filename})" if exc.filename else "")) from None

@@ -2,10 +2,12 @@
 (docs/FLEET_RUN.md).
 
     mcl run FLEET.mcl [--loss P | --loss CHANNEL=P ...] [--seed N] [--log-dir DIR]
-                      [--max-time SECONDS] [--quiet] [--no-verify]
+                      [--max-time SECONDS] [--realtime] [--mcap FILE] [--quiet]
+                      [--no-verify]
 
 Every vehicle of the fleet runs its mission on a simulated vehicle of its own (vehicle ``i``,
-in the fleet's order, gets the seed ``N + i``; the one its task library names in
+in the fleet's order, gets the seed ``N + i``, the vehicles of one simulated world ``N``, and
+its log's header says its own seed, with the fleet's as ``fleet_seed``; the one its task library names in
 :data:`SIMULATORS`, else the simulated Ictineu); the channels between them lose, drop and
 delay messages as :class:`mission.channels.ChannelModel` says, seeded by ``N``. It prints
 each vehicle's timeline (its name before each line), then each vehicle's end, its run log,
@@ -24,20 +26,23 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from diagnostics import file_error
+from diagnostics import MclError, file_error
 from mcl.fleet import CompiledFleet, compile_fleet_file
 from mission.exits import Exit
 from mission.fleet import FleetResult, run_fleet
+from mission.mcap_channels import track_of_poses
+from mission.mcap_export import Track, track_of_survey
 from mission.mcm_vehicles import mcm_vehicles
 from mission.run import NotVerified
 from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
 
+from app.mclc import check_output
 from app.safe_exit import Output, ReportCut, Stops
 from app.vehicles.kind import Invalid
 
-SEEDS = 2**64  # vehicle i's seed is (N + i) mod 2**64
+SEEDS = 2**64  # vehicle i's seed is (N + i) mod 2**64 (unless a world's: N)
 # a task library's file stem -> the simulated vehicle that has its behaviours (seed -> vehicle);
 # a vehicle whose library is not here runs on the simulated Ictineu
 SIMULATORS: dict[str, Callable[[int], Vehicle]] = {}
@@ -110,27 +115,47 @@ def vehicles_for(fleet: CompiledFleet, seed: int, inject: list[str] | None = Non
     ``--inject`` faults (a bad one, or faults with no such world: exit 2)."""
     from mission.simulated import simulated_vehicle  # here for start-up speed
 
-    stems = {name: [Path(u.library).stem for u in compiled.mission.uses]
-             for name, compiled in fleet.vehicles.items()}
     chosen: dict[str, Vehicle] = {}
-    for together, build in WORLDS.items():
-        owner = {stem: name for name, own in stems.items() for stem in own if stem in together}
-        if set(owner) == set(together):
-            try:
-                built = build(seed, list(inject or []))
-            except ValueError as exc:  # as for one vehicle: --inject FAULT: error: ...
-                raise Invalid(f"--inject {exc} (docs/MCM.md)") from None
-            chosen.update({owner[stem]: v for stem, v in built.items()})
+    for build, owner in worlds_of(fleet):
+        try:
+            built = build(seed, list(inject or []))
+        except ValueError as exc:  # as for one vehicle: --inject FAULT: error: ...
+            raise Invalid(f"--inject {exc} (docs/MCM.md)") from None
+        chosen.update({owner[stem]: v for stem, v in built.items()})
     if inject and not chosen:
         raise Invalid("--inject: not for this fleet: its vehicles share no simulated world "
                       "that takes faults (docs/MCM.md); leave it out")
-    for i, (name, own_stems) in enumerate(stems.items()):
+    own = seeds_for(fleet, seed)
+    for name, compiled in fleet.vehicles.items():
         if name in chosen:
             continue
-        make = next((SIMULATORS[s] for s in own_stems if s in SIMULATORS), None)
-        own = (seed + i) % SEEDS
-        chosen[name] = make(own) if make is not None else simulated_vehicle(seed=own)
+        stems = [Path(u.library).stem for u in compiled.mission.uses]
+        make = next((SIMULATORS[s] for s in stems if s in SIMULATORS), None)
+        chosen[name] = make(own[name]) if make is not None else simulated_vehicle(seed=own[name])
     return chosen
+
+
+def worlds_of(fleet: CompiledFleet
+              ) -> list[tuple[Callable[[int, list[str]], dict[str, Vehicle]], dict[str, str]]]:
+    """The simulated worlds (:data:`WORLDS`) the fleet's vehicles make, each with its
+    builder and which vehicle has each of its libraries (stem -> vehicle's name)."""
+    stems = {name: [Path(u.library).stem for u in compiled.mission.uses]
+             for name, compiled in fleet.vehicles.items()}
+    found = []
+    for together, build in WORLDS.items():
+        owner = {stem: name for name, own in stems.items() for stem in own if stem in together}
+        if set(owner) == set(together):
+            found.append((build, owner))
+    return found
+
+
+def seeds_for(fleet: CompiledFleet, seed: int) -> dict[str, int]:
+    """Each vehicle's own seed, which its log's header says: the fleet's ``seed`` for the
+    vehicles of a simulated world (built together from it), ``seed + i`` (mod 2**64) for
+    vehicle ``i`` of the fleet's order otherwise."""
+    together = {name for _, owner in worlds_of(fleet) for name in owner.values()}
+    return {name: seed if name in together else (seed + i) % SEEDS
+            for i, name in enumerate(fleet.vehicles)}
 
 
 def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[..., Any]) -> int:
@@ -146,10 +171,11 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
         if getattr(args, option):
             raise file_error(f"--{option}", f"--{option}: not for a fleet (each VEHICLE says "
                              "its own USES and PARAM)", "leave it out", "fleet-option")
-    for option in ("mcap", "foxglove", "realtime"):
-        if getattr(args, option):
-            raise file_error(f"--{option}", f"--{option}: not for a fleet yet (one mission's "
-                             "run only)", "leave it out", "fleet-option")
+    if args.foxglove:
+        raise file_error("--foxglove", "--foxglove: not for a fleet yet (one mission's run "
+                         "only)", "leave it out", "fleet-option")
+    if args.mcap is not None:
+        check_output(args.mcap, "--mcap")
     fleet = compile_fleet_file(args.mission, require_values=True)
     for d in fleet.warnings:
         print(d.format(), file=sys.stderr)
@@ -162,14 +188,18 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
     if not args.quiet:
         timelines = {name: [timeline(compiled, MissionClock(), Named(out, name, width))]
                      for name, compiled in fleet.vehicles.items()}
-    header = {"file": args.mission, "vehicle": "sim", "seed": args.seed, "inject": args.inject}
+    header = {"file": args.mission, "vehicle": "sim", "fleet_seed": args.seed,
+              "inject": args.inject}
+    own = {name: {"seed": s} for name, s in seeds_for(fleet, args.seed).items()}
     stops = Stops(("SIGINT", "SIGTERM", "SIGHUP"))
     try:
         vehicles = vehicles_for(fleet, args.seed, args.inject)
         result = run_fleet(fleet, vehicles, loss=loss, seed=args.seed,
-                           log_dir=folder, header=header, max_time=args.max_time,
+                           log_dir=folder, header=header, headers=own,
+                           max_time=args.max_time,
                            stop=stops.request, verify=not args.no_verify,
-                           observers=timelines, signer=signer, during=stops)
+                           observers=timelines, signer=signer, during=stops,
+                           speed=1.0 if args.realtime else None)
     except NotVerified as exc:
         stops.restore()
         print(f"{args.mission}: not verified ({', '.join(exc.failed)}): refusing to run it\n"
@@ -180,11 +210,45 @@ def run(args: argparse.Namespace, signer: Signer | None, timeline: Callable[...,
         raise
     try:  # a signal now only cuts the report short: the end records stand
         summary(args.mission, fleet, result, out, vehicles)
+        if args.mcap is not None:
+            write_mcap(Path(args.mcap), result, vehicles, out)
     except ReportCut as cut:
         print(cut.line(), file=sys.stderr)
     finally:
         stops.restore()
     return result.exit
+
+
+def write_mcap(path: Path, result: FleetResult, vehicles: dict[str, Vehicle], out: Output
+               ) -> None:
+    """``--mcap``: the fleet's run as one MCAP file, from its logs and channel record once
+    written: each vehicle under ``/NAME`` with its simulated track, the channels under
+    ``/channel/NAME`` (docs/MCAP.md); why not, on one line."""
+    from app.export import export_fleet  # here for start-up speed: only a run that asks
+
+    logs = [r.log for r in result.runs.values() if r.log is not None]
+    try:
+        written = export_fleet([Path(log) for log in logs], path, images=False,
+                               record=result.record, tracks=tracks_of(vehicles))
+    except MclError as exc:
+        print(f"mcl run: --mcap {path}: not written: {exc.format().splitlines()[0]}",
+              file=sys.stderr)
+        return
+    out.say(f"  mcap: {written.line()}")
+
+
+def tracks_of(vehicles: dict[str, Vehicle]) -> dict[str, Track]:
+    """Each simulated vehicle's track, by name: the simulated Ictineu's survey, or the true
+    poses a vehicle of paper 003 keeps; none for a vehicle that keeps neither."""
+    tracks = {}
+    for name, vehicle in vehicles.items():
+        survey = getattr(vehicle.stack, "survey", None)
+        poses = getattr(vehicle.modem, "track", None)
+        if survey is not None:
+            tracks[name] = track_of_survey(survey)
+        elif isinstance(poses, list):
+            tracks[name] = track_of_poses(poses)
+    return tracks
 
 
 class Named:

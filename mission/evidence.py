@@ -64,6 +64,11 @@ def _seconds(value: Any) -> bool:
         math.isfinite(value) and value > 0
 
 
+def _seed(value: Any) -> bool:
+    """A seed, as ``--seed`` takes it: an integer from 0 to 2**64 - 1."""
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 2**64
+
+
 # the header's fields: what each must be (the ones every run writes are marked required)
 HEADER: dict[str, tuple[bool, str, Callable[[Any], bool]]] = {
     "kind": (True, "header", lambda v: v == "header"),
@@ -76,14 +81,14 @@ HEADER: dict[str, tuple[bool, str, Callable[[Any], bool]]] = {
     "params": (False, "names -> MCL text", _text_map),
     "tasks": (False, "a list of file names", _texts),
     "vehicle": (False, "the --vehicle text", lambda v: isinstance(v, str)),
-    "seed": (False, "a seed from 0 to 2**63 - 1",
-             lambda v: isinstance(v, int) and not isinstance(v, bool) and 0 <= v < 2**63),
+    "seed": (False, "a seed from 0 to 2**64 - 1", lambda v: _seed(v)),
     "inject": (False, "a list of FAULT@SECONDS or NAME=X,Y",
                lambda v: _texts(v) and all(_fault(x) for x in v)),
     "max_time": (False, "a positive number of seconds", _seconds),
     "time": (False, "the note on mission time", lambda v: isinstance(v, str)),
     "fleet": (False, "the fleet's name", lambda v: isinstance(v, str)),  # mission/fleet.py
     "as": (False, "the vehicle's name in its fleet", lambda v: isinstance(v, str)),
+    "fleet_seed": (False, "the fleet's seed, from 0 to 2**64 - 1", lambda v: _seed(v)),
 }
 
 

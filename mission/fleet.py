@@ -35,6 +35,7 @@ import contextlib
 import math
 import random
 import threading
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -61,6 +62,8 @@ from mission.exits import Exit
 from mission.logwriter import LogUnwritable
 from mission.run import NotVerified, RunResult, Stop, run_mission
 from mission.vehicle import Vehicle
+
+PACE_WAIT = 0.2  # wall s: the longest single wait of a fleet paced at wall time
 
 
 class FleetSpec(Protocol):
@@ -100,7 +103,9 @@ class SharedClock:
     happening is earliest (ties: the fleet's order); a thread not yet at its vehicle waits
     for it, so that the start is the same whatever the threads' speed."""
 
-    def __init__(self, names: list[str]) -> None:
+    def __init__(self, names: list[str], speed: float | None = None) -> None:
+        self.speed = speed  # the clock at this many times wall time (None: as fast as it can)
+        self.wall0 = time.monotonic()  # the wall time of mission time 0
         self.cond = threading.Condition()
         self.order = {name: i for i, name in enumerate(names)}
         self.state = {name: "new" for name in names}  # new | waiting | running | gone
@@ -129,6 +134,18 @@ class SharedClock:
     def active(self, name: str) -> bool:
         with self.cond:
             return self.state[name] != "gone"
+
+    def paced(self, target: float) -> float:
+        """How far mission time may go towards ``target`` now: all of it, unless the clock
+        is paced at wall time (``speed``); then it waits at most ``PACE_WAIT`` wall seconds,
+        so that the runner holding the turn looks at a stop often."""
+        if not self.speed:
+            return target
+        ahead = target / self.speed - (time.monotonic() - self.wall0)
+        if ahead <= 0:
+            return target
+        time.sleep(min(ahead, PACE_WAIT))
+        return min(target, (time.monotonic() - self.wall0) * self.speed)
 
     def pick(self) -> None:
         """Give the turn to the earliest waiting vehicle, once every vehicle has arrived."""
@@ -188,7 +205,8 @@ class FleetAdapter:
 
     def receive(self, until: float) -> list[EventMessage]:
         self.clock.wait_turn(self.name, lambda: self.next_time(until))
-        events = [self.renumbered(e) for e in self.inner.receive(self.next_time(until))]
+        reached = self.clock.paced(self.next_time(until))
+        events = [self.renumbered(e) for e in self.inner.receive(reached)]
         for at, msg in self.carrier.deliveries(self.name, self.inner.now()):
             data = {**msg.data, "sent": msg.sent}
             events.append(self.renumbered(EventMessage(0, at, msg.channel, msg.message, data)))
@@ -258,17 +276,23 @@ def losses(fleet: FleetSpec, loss: float | Mapping[str, float]) -> dict[str, flo
 
 def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float |
               Mapping[str, float] = 0.0, seed: int = 1, log_dir: str | Path | None = None,
-              header: Mapping[str, Any] | None = None, max_time: float | None = None,
+              header: Mapping[str, Any] | None = None,
+              headers: Mapping[str, Mapping[str, Any]] | None = None,
+              max_time: float | None = None,
               stop: Callable[[], Stop | str | None] | None = None, verify: bool = True,
               observers: Mapping[str, list[Callable[[Any], None]]] | None = None,
               signer: Signer | None = None,
-              during: contextlib.AbstractContextManager[Any] | None = None) -> FleetResult:
+              during: contextlib.AbstractContextManager[Any] | None = None,
+              speed: float | None = None) -> FleetResult:
     """Run every vehicle of ``fleet`` to its end on ``vehicles`` (by name), one simulated
     clock for all (this module's doc). ``loss``: the loss probability of every LOSSY channel,
     or by channel name; ``seed``: the channels' random stream; ``log_dir``: a run log per
     vehicle (``NAME.jsonl``) and the channel record (``channels.jsonl``) go there;
-    ``observers``: each vehicle's extra observers (a timeline); the rest as
-    :func:`mission.run_mission`. Raises :class:`NotVerified` (a vehicle's mission not verified
+    ``header``: what every vehicle's log header says, ``headers``: what one vehicle's says
+    besides (its own seed), by name;
+    ``observers``: each vehicle's extra observers (a timeline); ``speed``: the one clock
+    runs at this many times wall time (1.0: ``--realtime``; None: as fast as it can); the
+    rest as :func:`mission.run_mission`. Raises :class:`NotVerified` (a vehicle's mission not verified
     alone with its receptions as environment events, or a fleet property proved false; one
     the proof leaves undecided does not stop the run) or a capability refusal before
     anything runs."""
@@ -298,15 +322,16 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
               for name, c in fleet.channels.items()}
     places = {name: where_of(vehicles[name]) for name in names}
     carrier = InProcessCarrier(fleet.channels, models, lambda n: places[n](), record)
-    clock = SharedClock(names)
+    clock = SharedClock(names, speed)
     stops = FleetStop(stop)
     runs: dict[str, RunResult] = {}
     errors: dict[str, BaseException] = {}
 
     def one(name: str) -> None:
         try:
+            about = {**(header or {}), **(headers or {}).get(name, {})}
             runs[name] = run_vehicle(name, fleet, vehicles[name], clock, carrier, stops,
-                                     folder, header, max_time, observers, signer)
+                                     folder, about, max_time, observers, signer)
             if runs[name].status == "error":
                 stops.fail(name, f"failed: {runs[name].reason}")
         except BaseException as exc:  # noqa: BLE001 - the others stop safely, then it goes on

@@ -9,7 +9,8 @@ message against the schema it is recorded under. Fields Foxglove adds and a run 
 (``message_id``, ``lineage``) are left out; a JSON Schema allows them anyway. The schemas
 named ``mcl.*`` are ours: the mission's status (each task call's state, for Foxglove's State
 Transitions panel), the navigator's estimate and the sonar wall tracker's against the truth
-(for its Plot panel).
+(for its Plot panel), and a fleet's channel events (each message sent, delivered, lost,
+dropped or left undelivered: its delay plottable).
 """
 
 from __future__ import annotations
@@ -117,9 +118,25 @@ WALL_TRACKER = _object("mcl.WallTracker", {
     "heading_error": {"type": "number", "description": "rad, tracked minus true"}},
     required=["timestamp", "distance", "heading"])
 
+FATES = ("sent", "delivered", "lost", "dropped", "undelivered")  # a channel record's lines
+
+CHANNEL_EVENT = _object("mcl.ChannelEvent", {
+    "timestamp": TIME,
+    "channel": {"type": "string"},
+    "message": {"type": "string"},
+    "fate": {"type": "string", "enum": list(FATES)},
+    "sender": {"type": "string"},
+    "receiver": {"type": "string", "description": "\"\" for sent (every receiver)"},
+    "seq": {"type": "integer", "minimum": 0, "description": "the sender's message number"},
+    "sent": {"type": "number", "description": "s, the sender's mission time when sent"},
+    "delay": {"type": "number", "minimum": 0, "description": "s, from send to delivery"},
+    "why": {"type": "string"}},
+    required=["timestamp", "channel", "message", "fate", "sender", "receiver", "seq",
+              "sent"])
+
 SCHEMAS: dict[str, Schema] = {s["title"]: s for s in (
     LOG, POSE_IN_FRAME, SCENE_UPDATE, COMPRESSED_IMAGE, MISSION_STATUS, NAVIGATION,
-    WALL_TRACKER)}
+    WALL_TRACKER, CHANNEL_EVENT)}
 
 
 def schema_text(name: str) -> bytes:

@@ -60,6 +60,7 @@ class Track:
     estimate: list[Pose] = field(default_factory=list)
     fixes: list[tuple[float, float, float, float, bool]] = field(default_factory=list)
     wall: list[WallSample] = field(default_factory=list)
+    plane: bool = True  # the dam's wall (the plane x = 0) is drawn beside the track
 
 
 @dataclass(frozen=True)
@@ -179,8 +180,9 @@ def track_messages(track: Track, first: int = 0) -> Iterable[Message]:
         end = min(start + SEGMENT, len(track.truth) - 1)
         t = track.truth[end].t
         after = track.truth[start].t if first + start > 0 else -math.inf
-        lines = [line(track.truth[start:end + 1], TRUE_COLOR),
-                 line(track.estimate[start:end + 1], ESTIMATE_COLOR)]
+        lines = [line(track.truth[start:end + 1], TRUE_COLOR)]
+        if track.estimate:
+            lines.append(line(track.estimate[start:end + 1], ESTIMATE_COLOR))
         entities = [entity(t, f"track/{first + start}", lines=lines)]
         fixes = [f for f in track.fixes if after < f[0] <= t]
         if fixes:
@@ -224,7 +226,7 @@ def usbl_and_wall(track: Track) -> Message:
     wall = {"pose": pose_of(Pose(t, -0.05, (min(ys) + max(ys)) / 2, max(zs) / 2 + 0.5, 0.0)),
             "size": {"x": 0.1, "y": max(ys) - min(ys) + 4.0, "z": max(zs) + 1.0},
             "color": {"r": 0.6, "g": 0.6, "b": 0.6, "a": 0.4}}
-    entities = [entity(t, "wall", cubes=[wall])]
+    entities = [entity(t, "wall", cubes=[wall])] if track.plane else []
     late = [f for f in track.fixes if f[0] > t]
     if late:
         entities.append(entity(t, "usbl/after", spheres=spheres(late)))
@@ -285,13 +287,25 @@ def write_mcap(out: Path, records: list[dict[str, Any]], track: Track | None = N
     return write_fleet(out, [Run(records, track, list(pictures), list(attachments))])
 
 
-def write_fleet(out: Path, runs: list[Run]) -> Written:
-    """Write the MCAP file ``out`` of one or more runs (a fleet's, each in its namespace),
-    every message in time order (the runs' mission times side by side)."""
+@dataclass
+class Shared:
+    """What a fleet's MCAP file holds outside its vehicles' namespaces: messages (its channel
+    record's: mission/mcap_channels.py), metadata by name, attachments."""
+
+    messages: list[Message] = field(default_factory=list)
+    metadata: dict[str, dict[str, str]] = field(default_factory=dict)
+    attachments: list[tuple[str, bytes]] = field(default_factory=list)
+
+
+def write_fleet(out: Path, runs: list[Run], shared: Shared | None = None) -> Written:
+    """Write the MCAP file ``out`` of one or more runs (a fleet's, each in its namespace, and
+    what they share), every message in time order (the runs' mission times side by side)."""
     from mcap.writer import Writer  # lazy, for start-up speed: only a run that asks for it
 
+    shared = shared if shared is not None else Shared()
     items = [(t, n, run.namespace, item) for n, (run, (t, item)) in enumerate(
         (run, pair) for run in runs for pair in run.items())]
+    items += [(m.t, len(items) + n, "", m) for n, m in enumerate(shared.messages)]
     items.sort(key=lambda item: (item[0], item[1]))
     written = Written(out)
     with open(out, "wb") as stream:
@@ -309,13 +323,16 @@ def write_fleet(out: Path, runs: list[Run]) -> Written:
             writer.add_message(channels[topic], ns, _json(m.data), ns)
             written.topics[topic] = written.topics.get(topic, 0) + 1
         for run in runs:
-            prefix = f"{run.namespace}/" if run.namespace else ""
             writer.add_metadata(f"mcl.run/{run.namespace}" if run.namespace else "mcl.run",
                                 metadata(run.records))
-            for name, data in run.attachments:
-                media = "image/png" if name.endswith(".png") else "text/plain"
-                writer.add_attachment(0, 0, prefix + name, media, data)
-                written.attachments.append(prefix + name)
+        for name, said in shared.metadata.items():
+            writer.add_metadata(name, said)
+        files = [(f"{run.namespace}/" if run.namespace else "", name, data)
+                 for run in runs for name, data in run.attachments]
+        for prefix, name, data in [*files, *(("", n, d) for n, d in shared.attachments)]:
+            media = "image/png" if name.endswith(".png") else "text/plain"
+            writer.add_attachment(0, 0, prefix + name, media, data)
+            written.attachments.append(prefix + name)
         writer.finish()  # type: ignore[no-untyped-call]
     return written
 

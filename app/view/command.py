@@ -2,6 +2,11 @@
 
     mcl view RUN.jsonl MISSION.mcl [--tasks FILE] [--port N]
     mcl view --zenoh ENDPOINT MISSION.mcl [--name auv] [--port N]
+    mcl view RUNDIR FLEET.mcl [--port N]
+
+A fleet's run (the folder ``mcl run FLEET.mcl --log-dir RUNDIR`` wrote) shows every
+vehicle's tree under the fleet's, with every vehicle's timeline and the channels' messages
+(app/view/fleet.py).
 
 From a log, it checks the log as ``mcl replay`` does (its lines and digest chain, then every
 record against the mission's net: the page shows only a legal run). Live, it follows the
@@ -23,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from mcl.api import Compiled, compile_file
+from mcl.fleet import is_fleet
 from mission.exits import Exit
 
 from app import arguments
@@ -33,12 +39,14 @@ def _parser() -> argparse.ArgumentParser:
     from app import zenoh_options
 
     p = arguments.Parser(prog="mcl view", usage="mcl view RUN.jsonl MISSION.mcl "
-                                "[options]\n       mcl view --zenoh ENDPOINT MISSION.mcl "
+                                "[options]\n       mcl view RUNDIR FLEET.mcl [options]"
+                                "\n       mcl view --zenoh ENDPOINT MISSION.mcl "
                                 "[options]", description="Show a run of a mission in a "
                                 "browser: its tree with each block's state, the timeline, the "
                                 "track, the proved bounds, the mosaic.")
     p.add_argument("files", nargs="+", metavar="FILE",
-                   help="the run log and its mission; with --zenoh, the mission alone")
+                   help="the run log and its mission, or a fleet's log folder and its "
+                        "fleet; with --zenoh, the mission alone")
     p.add_argument("--zenoh", metavar="ENDPOINT", help="follow a live run on the vehicle at "
                    "this endpoint (e.g. tcp/127.0.0.1:7447) instead of a log")
     p.add_argument("--name", default="auv", help="--zenoh: the vehicle's name in the keys "
@@ -119,6 +127,13 @@ def _view(args: argparse.Namespace) -> int:
                                               threading.Event()),
                          name="mcl-view-zenoh", daemon=True).start()
         what = f"live from {args.zenoh}"
+    elif Path(args.files[0]).is_dir() or is_fleet(args.files[1]):
+        from app.view.fleet import fleet_data, load_fleet  # as above: for start-up speed
+
+        fleet, logs, record = load_fleet(args.files[0], args.files[1])
+        whole = fleet_data(fleet, logs, record, Path(args.files[0]))
+        provider, found = (lambda: whole), {}
+        what = f"{len(logs)} vehicles' logs"
     else:
         try:
             compiled, records = load(args.files[0], args.files[1], args.tasks)

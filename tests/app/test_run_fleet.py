@@ -60,7 +60,7 @@ def test_a_tampered_fleet_log_is_not_conformant(tmp_path: Path,
     (["--log", "x.jsonl"], "a fleet writes one run log per vehicle"),
     (["--vehicle", "mavlink:udpin:127.0.0.1:14550"], "a fleet runs in one process"),
     (["--param", "x=1"], "not for a fleet"),
-    (["--realtime"], "not for a fleet yet"),
+    (["--foxglove", "127.0.0.1:8765"], "not for a fleet yet"),
 ])
 def test_a_bad_fleet_option_is_one_line_and_exit_2(
         args: list[str], says: str, capsys: pytest.CaptureFixture[str]) -> None:
