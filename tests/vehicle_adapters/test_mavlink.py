@@ -38,6 +38,7 @@ from vehicle_adapters.inprocess import InProcess
 from vehicle_adapters.mavlink.link import MODES, MavlinkVehicle, mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: I001  (MAVLink 2 is set)
 
+from tests.dam_runs import DamRuns
 from tests.support import BIN, MISSIONS, REPO, budget, end, free_udp_port, started, stop
 
 pytestmark = pytest.mark.slow  # real vehicle processes over MAVLink: not in make test-quick
@@ -172,14 +173,22 @@ def reference(faults: list[tuple[str, float]]) -> dict[str, Any]:
     player.observers.append(records.append)
     with InProcess(IctineuStack(StackConfig(seed=SEED, faults=faults))) as vehicle:
         outcome = run(player, vehicle, "dam_inspection")
+    return sequences(outcome.status, records)
+
+
+def sequences(status: str, records: list[Record]) -> dict[str, Any]:
+    """A run's status, task sequence and transitions, of its records."""
     flat = [{"kind": r.kind, **r.data} for r in records]
-    return {"status": outcome.status, "tasks": task_sequence(flat),
-            "transitions": transitions(flat)}
+    return {"status": status, "tasks": task_sequence(flat), "transitions": transitions(flat)}
 
 
 @pytest.fixture(scope="module")
-def in_process() -> dict[str, Any]:
-    return reference([])
+def in_process(dam_runs: DamRuns) -> dict[str, Any]:
+    """reference([]): tests/dam_runs.py's run of the dam mission with the vehicle's seed, made
+    once per test run for this file, test_zenoh.py and the stack's tests."""
+    assert SEED == 1  # the seed of dam_runs["dam"]
+    dam = dam_runs["dam"]
+    return sequences(dam.outcome.status, dam.records)
 
 
 def check_same_as_in_process(code: int, out: str, err: str, log: Path,
