@@ -39,6 +39,7 @@ from vehicle_adapters.mavlink.link import MODES, MavlinkVehicle, mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: I001  (MAVLink 2 is set)
 
 from tests.dam_runs import DamRuns
+from tests.in_process import mcl_in_process
 from tests.support import BIN, MISSIONS, REPO, budget, end, free_udp_port, started, stop
 
 pytestmark = pytest.mark.slow  # real vehicle processes over MAVLink: not in make test-quick
@@ -434,10 +435,12 @@ def test_no_vehicle_gives_link_lost_without_hanging(tmp_path: Path) -> None:
     (["--vehicle", "mavlink:", "--require-signing"], "--require-signing needs a key"),
 ])
 def test_bad_input_exits_2_with_a_clear_message(tmp_path: Path, args: list[str],
-                                                message: str) -> None:
-    result = subprocess.run([str(BIN / "mcl"), "run", DAM, *args, "--log",
-                             str(tmp_path / "run.jsonl")], capture_output=True, text=True,
-                            timeout=budget(6), cwd=REPO, env=env(tmp_path), stdin=subprocess.DEVNULL)
+                                                message: str, monkeypatch: pytest.MonkeyPatch
+                                                ) -> None:
+    for name, value in env(tmp_path).items():  # the environment of the processes above
+        monkeypatch.setenv(name, value)
+    monkeypatch.delenv("MCL_MAVLINK_KEY", raising=False)
+    result = mcl_in_process("run", DAM, *args, "--log", str(tmp_path / "run.jsonl"))
     assert result.returncode == 2, result.stdout + result.stderr
     assert message in result.stderr
     assert "Traceback" not in result.stderr

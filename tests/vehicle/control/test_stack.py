@@ -27,7 +27,7 @@ from mcl.api import compile_file
 from petri.execution.replay import check
 from petri.execution.runlog import read_log
 from tests.dam_runs import DAM, DamRuns, Run, run_mission
-from tests.support import cli
+from tests.in_process import mcl_in_process
 from vehicle.world.robot import Environment
 from vehicle.control.stack import DT, IctineuStack, StackConfig
 from vehicle.world.survey import Survey
@@ -272,13 +272,12 @@ def no_traceback(result: object) -> None:
 
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("inject", ["flood@10", "leak@-3", "leak", "leak@", "@600", "leak@soon",
                                     "leak@nan"])
 def test_mcl_run_refuses_a_bad_inject(tmp_path: Path, inject: str) -> None:
-    log = tmp_path / "bad.jsonl"
-    result = cli("mcl", "run", "missions/dam_inspection.mcl", "--inject", inject,
-                 "--log", str(log), "--quiet")
+    log = tmp_path / "bad.jsonl"  # in process: test_stack_faults.py starts mcl run for real
+    result = mcl_in_process("run", "missions/dam_inspection.mcl", "--inject", inject,
+                            "--log", str(log), "--quiet")
     assert result.returncode == 2, result.stdout + result.stderr
     no_traceback(result)
     assert f"--inject {inject}" in result.stderr and "leak@600" in result.stderr
