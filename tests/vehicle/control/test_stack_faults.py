@@ -85,7 +85,8 @@ def test_overtemperature_and_overpressure_run_the_catch_too(runs: dict[str, Run]
 @pytest.mark.slow
 def test_mcl_run_with_a_leak_exits_0_reports_the_survey_and_replays(tmp_path: Path) -> None:
     log = tmp_path / "dam_leak.jsonl"
-    result = cli("mcl", "run", "missions/dam_inspection.mcl", "--inject", "leak@600",
+    # 100 s: 76 s into the survey (the in-process runs above take the leak at 600 s)
+    result = cli("mcl", "run", "missions/dam_inspection.mcl", "--inject", "leak@100",
                  "--log", str(log), "--quiet", "--no-images")  # the mosaic: test_mosaic.py
     assert result.returncode == 0, result.stdout + result.stderr
     no_traceback(result)
