@@ -205,7 +205,9 @@ def test_the_vehicle_tells_the_player_its_behaviours_progress() -> None:
     """Issue 25: the behaviours telemetry carries each active behaviour's progress, which the
     player's adapter gives the mission status (a GoTo's distance to its target)."""
     endpoint = free_endpoint()
-    with vehicle_process(endpoint), ZenohVehicle(endpoint, "auv") as vehicle:
+    # at 20x: the telemetry (5 a second) tells the progress every 4 s of vehicle time, 2 m of
+    # travel (at 100x, 10 m: the first told could already be under 15 m to go)
+    with vehicle_process(endpoint, speed=20), ZenohVehicle(endpoint, "auv") as vehicle:
         assert vehicle.progress() == {}
         vehicle.send(ActionMessage(0, vehicle.now(), "m", "GoTo@1:1", "enable", "GoTo",
                                    {"x": -1.5, "y": 20.0, "z": 2.0, "yaw": 0.0,
