@@ -61,7 +61,10 @@ demo: $(RUNTIME)
 # pytest-xdist: one worker per core, a test module at a time (--dist loadfile), so a module
 # fixture (a dam run, a vehicle) is made once, not by each worker. (--dist loadgroup would
 # send the rest test by test, but pytest 9.2 ignores the group xdist 3.8 tags a test with.)
-XDIST := -n logical --dist loadfile
+# The modules in collection order, which tests/conftest.py makes longest first so that the
+# workers end together (--no-loadscope-reorder: xdist's own order, most tests first, left the
+# few long real-process files for the end, run by one worker while the other waited).
+XDIST := -n logical --dist loadfile --no-loadscope-reorder
 
 test: $(EXTRAS)
 	$(BIN)/python -m pytest -q $(XDIST)

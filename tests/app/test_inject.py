@@ -9,12 +9,12 @@ from pathlib import Path
 import pytest
 
 from mission.exits import Exit
+from tests.in_process import mcl_in_process
 from tests.support import MISSIONS, cli
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("fault, says", [
     ("leak@-4", "-4 s is before the mission starts"),
     ("leak@1e400", "is not a finite number of seconds"),
@@ -24,7 +24,8 @@ DAM = str(MISSIONS / "dam_inspection.mcl")
     ("leak", "expected FAULT@SECONDS"),
 ])
 def test_a_bad_fault_is_one_line_and_exit_2(fault: str, says: str, tmp_path: Path) -> None:
-    result = cli("mcl", "run", DAM, "--inject", fault, "--log", str(tmp_path / "r.jsonl"))
+    # in process (tests/in_process.py): the tests below start mcl run for real
+    result = mcl_in_process("run", DAM, "--inject", fault, "--log", str(tmp_path / "r.jsonl"))
     assert result.returncode == Exit.INVALID, result.stderr
     assert says in result.stderr
     assert "Traceback" not in result.stderr

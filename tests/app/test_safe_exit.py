@@ -143,7 +143,12 @@ def test_a_signal_on_the_simulated_vehicle_aborts_and_switches_off(tmp_path: Pat
 
 
 def test_sigterm_on_a_scripted_vehicle_aborts_and_switches_off(tmp_path: Path) -> None:
-    with mcl_run(tmp_path, DAM, "--vehicle", f"script:{DAM_TOML}", "--realtime") as (proc, log):
+    # the dam's scripted vehicle, surfacing (the ON STOP) in 2 s of wall-clock time, not 25
+    shipped = Path(DAM_TOML).read_text("utf-8")
+    quick = shipped.replace('after = 25.0, event = "surfaced"', 'after = 2.0, event = "surfaced"')
+    assert quick != shipped
+    script = write(tmp_path, quick, "dam.toml")
+    with mcl_run(tmp_path, DAM, "--vehicle", f"script:{script}", "--realtime") as (proc, log):
         wait_until_running(proc, log, enables=2)  # StartLogs, GoTo: 40 s before GoTo.reached
         proc.send_signal(signal.SIGTERM)
         code = finish(proc, log)

@@ -17,9 +17,10 @@ import pytest
 
 from app.streams import StdoutLost, lost, lost_line, open_standard_streams, watched_stdout
 
+from tests.dam_runs import SHORT_SURVEY
 from tests.support import BIN, MISSIONS, REPO, budget, subprocess_env
 
-DAM = str(MISSIONS / "dam_inspection.mcl")
+DAM = str(MISSIONS / "dam_inspection.mcl")  # mcl run: its short survey (tests/dam_runs.py)
 FULL = "/dev/full"
 
 
@@ -75,8 +76,8 @@ def test_a_full_stdout_is_one_line_and_exit_2(tmp_path: Path, command: list[str]
 @needs_full
 def test_replay_into_a_full_stdout_is_one_line_and_exit_2(tmp_path: Path) -> None:
     log = tmp_path / "run.jsonl"
-    code, err = run(["mcl", "run", DAM, "--no-images", "--quiet", "--log", str(log)], tmp_path,
-                    str(tmp_path / "out.txt"))
+    code, err = run(["mcl", "run", DAM, *SHORT_SURVEY, "--no-images", "--quiet", "--log",
+                     str(log)], tmp_path, str(tmp_path / "out.txt"))
     assert code == 0, err
     code, err = run(["mcl", "replay", str(log), DAM], tmp_path, FULL)
     assert code == 2 and "Traceback" not in err, err
@@ -89,7 +90,8 @@ def test_a_run_with_stdout_closed_ends_as_its_end_record_says(tmp_path: Path) ->
     # the case: AttributeError on the first line of the timeline, exit 3, the end
     # record saying exit 5 and an error
     log = tmp_path / "run.jsonl"
-    code, err = run(["mcl", "run", DAM, "--no-images", "--log", str(log)], tmp_path, "closed")
+    code, err = run(["mcl", "run", DAM, *SHORT_SURVEY, "--no-images", "--log", str(log)],
+                    tmp_path, "closed")
     assert "Traceback" not in err and "internal error" not in err, err
     last = end_record(log)
     assert last["how"] == "ok" and last["exit"] == code == 0, (last, err)
@@ -99,7 +101,8 @@ def test_a_run_with_stdout_closed_ends_as_its_end_record_says(tmp_path: Path) ->
 @needs_full
 def test_a_run_into_a_full_stdout_ends_as_its_end_record_says(tmp_path: Path) -> None:
     log = tmp_path / "run.jsonl"
-    code, err = run(["mcl", "run", DAM, "--no-images", "--log", str(log)], tmp_path, FULL)
+    code, err = run(["mcl", "run", DAM, *SHORT_SURVEY, "--no-images", "--log", str(log)],
+                    tmp_path, FULL)
     assert "Traceback" not in err, err
     last = end_record(log)
     assert last["how"] == "ok" and last["exit"] == code == 0, (last, err)

@@ -25,6 +25,7 @@ from mission.logwriter import LogWriter
 from petri.execution.player import Record
 from petri.execution.runlog import RunLog
 
+from tests.dam_runs import SHORT_SURVEY
 from tests.support import BIN, MISSIONS, REPO, budget, stop, subprocess_env, write
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
@@ -107,7 +108,7 @@ def test_the_log_folder_removed_mid_run_aborts_the_run(tmp_path: Path) -> None:
 def test_a_log_on_a_device_writes_nothing_beside_it(tmp_path: Path) -> None:
     beside = [Path("/dev/null.svg"), Path("/dev/null.images")]
     before = [p.exists() for p in beside]
-    proc = mcl_run(tmp_path, DAM, "--log", "/dev/null")
+    proc = mcl_run(tmp_path, DAM, *SHORT_SURVEY, "--log", "/dev/null")  # camera on, 200 s
     out, err = proc.communicate(timeout=budget(60))
     made = [p for p, was in zip(beside, before, strict=True) if p.exists() and not was]
     for p in made:  # a failing run must not leave them behind

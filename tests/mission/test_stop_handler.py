@@ -101,7 +101,9 @@ SLOW_SURFACE = ('[behaviours.GoTo]\non_enable = { after = 5.0, event = "reached"
 
 
 def test_a_second_stop_halts_the_handler_and_switches_it_off(tmp_path: Path) -> None:
-    mission = write(tmp_path, "MISSION dive { GoTo((0, 0, 1, 0), timeout = 1 min); "
+    # straight down from the vehicle's start (-6, -2, 0.3): reached in 3 s at 1 m deep (GoTo's
+    # tolerance 0.5 m), in wall-clock time
+    mission = write(tmp_path, "MISSION dive { GoTo((-6, -2, 1.5, 0), timeout = 1 min); "
                               "Wait(10 min) } ON STOP { Surface() }")
     vehicle = scripted(tmp_path, SLOW_SURFACE)
     first, again = Stop("SIGINT received", signal.SIGINT, 1), Stop("SIGINT again", 2, 2)
@@ -165,7 +167,9 @@ def test_an_uncaught_link_lost_runs_the_handler_when_the_link_still_carries_acti
 
 # -- a real SIGINT to a real mcl run, at depth ------------------------------------------------
 def test_ctrl_c_at_depth_brings_the_vehicle_to_the_surface(tmp_path: Path) -> None:
-    mission = write(tmp_path, "MISSION dive { GoTo((0, 0, 1, 0), timeout = 1 min); "
+    # straight down from the vehicle's start (-6, -2, 0.3): reached in 3 s at 1 m deep (GoTo's
+    # tolerance 0.5 m), in wall-clock time
+    mission = write(tmp_path, "MISSION dive { GoTo((-6, -2, 1.5, 0), timeout = 1 min); "
                               "Wait(10 min) } ON STOP { Surface() }")
     log, out = tmp_path / "run.jsonl", tmp_path / "run.out"
     with open(out, "wb") as sink:

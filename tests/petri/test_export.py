@@ -6,6 +6,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from collections import Counter
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -14,12 +15,17 @@ pytestmark = pytest.mark.filterwarnings("ignore:the Petri net has been imported"
 from mcl.api import compile_file
 from tests.support import MISSIONS, cli
 
-pm4py = pytest.importorskip("pm4py")
+
+@pytest.fixture(scope="module")
+def pm4py() -> Any:
+    """pm4py, imported when this file's test runs: not at collection, where its 2.5 s of imports
+    (pandas among them) were paid by every worker of make test."""
+    return pytest.importorskip("pm4py")
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("mission", ["dam_inspection", "every_construct"])
-def test_pm4py_reads_our_pnml(mission: str, tmp_path: Path) -> None:
+def test_pm4py_reads_our_pnml(mission: str, tmp_path: Path, pm4py: Any) -> None:
     out = tmp_path / f"{mission}.pnml"
     proc = cli("mclc", str(MISSIONS / f"{mission}.mcl"), "--pnml", str(out), "--no-verify")
     assert proc.returncode == 0, proc.stderr

@@ -38,6 +38,8 @@ from vehicle_adapters.inprocess import InProcess
 from vehicle_adapters.mavlink.link import MODES, MavlinkVehicle, mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: I001  (MAVLink 2 is set)
 
+from tests.dam_runs import DamRuns
+from tests.in_process import mcl_in_process
 from tests.support import BIN, MISSIONS, REPO, budget, end, free_udp_port, started, stop
 
 pytestmark = pytest.mark.slow  # real vehicle processes over MAVLink: not in make test-quick
@@ -172,14 +174,22 @@ def reference(faults: list[tuple[str, float]]) -> dict[str, Any]:
     player.observers.append(records.append)
     with InProcess(IctineuStack(StackConfig(seed=SEED, faults=faults))) as vehicle:
         outcome = run(player, vehicle, "dam_inspection")
+    return sequences(outcome.status, records)
+
+
+def sequences(status: str, records: list[Record]) -> dict[str, Any]:
+    """A run's status, task sequence and transitions, of its records."""
     flat = [{"kind": r.kind, **r.data} for r in records]
-    return {"status": outcome.status, "tasks": task_sequence(flat),
-            "transitions": transitions(flat)}
+    return {"status": status, "tasks": task_sequence(flat), "transitions": transitions(flat)}
 
 
 @pytest.fixture(scope="module")
-def in_process() -> dict[str, Any]:
-    return reference([])
+def in_process(dam_runs: DamRuns) -> dict[str, Any]:
+    """reference([]): tests/dam_runs.py's run of the dam mission with the vehicle's seed, made
+    once per test run for this file, test_zenoh.py and the stack's tests."""
+    assert SEED == 1  # the seed of dam_runs["dam"]
+    dam = dam_runs["dam"]
+    return sequences(dam.outcome.status, dam.records)
 
 
 def check_same_as_in_process(code: int, out: str, err: str, log: Path,
@@ -425,10 +435,12 @@ def test_no_vehicle_gives_link_lost_without_hanging(tmp_path: Path) -> None:
     (["--vehicle", "mavlink:", "--require-signing"], "--require-signing needs a key"),
 ])
 def test_bad_input_exits_2_with_a_clear_message(tmp_path: Path, args: list[str],
-                                                message: str) -> None:
-    result = subprocess.run([str(BIN / "mcl"), "run", DAM, *args, "--log",
-                             str(tmp_path / "run.jsonl")], capture_output=True, text=True,
-                            timeout=budget(6), cwd=REPO, env=env(tmp_path), stdin=subprocess.DEVNULL)
+                                                message: str, monkeypatch: pytest.MonkeyPatch
+                                                ) -> None:
+    for name, value in env(tmp_path).items():  # the environment of the processes above
+        monkeypatch.setenv(name, value)
+    monkeypatch.delenv("MCL_MAVLINK_KEY", raising=False)
+    result = mcl_in_process("run", DAM, *args, "--log", str(tmp_path / "run.jsonl"))
     assert result.returncode == 2, result.stdout + result.stderr
     assert message in result.stderr
     assert "Traceback" not in result.stderr

@@ -26,12 +26,11 @@ from mcl.api import compile_file  # noqa: E402
 from petri.execution.player import Player, Record  # noqa: E402
 from petri.execution.runner import run  # noqa: E402
 from petri.execution.status import task_calls  # noqa: E402
-from vehicle.control.stack import IctineuStack, StackConfig  # noqa: E402
 from aal.messages import ActionMessage  # noqa: E402
-from vehicle_adapters.inprocess import InProcess  # noqa: E402
 from aal.zenoh import LEASE_MS, keys, zenoh_config  # noqa: E402
 from vehicle_adapters.zenoh_link import ZenohVehicle  # noqa: E402
 
+from tests.dam_runs import DamRuns  # noqa: E402
 from tests.support import (  # noqa: E402
     MISSIONS, REPO, TOLERANT_LEASE_MS, budget, free_endpoint, started)
 
@@ -64,14 +63,13 @@ def compiled() -> Any:
 
 
 @pytest.fixture(scope="module")
-def in_process_transitions(compiled: Any) -> list[str]:
-    player = Player(compiled.net)
-    records: list[Record] = []
-    player.observers.append(records.append)
-    with InProcess(IctineuStack(StackConfig(seed=SEED))) as vehicle:
-        outcome = run(player, vehicle, "dam_inspection")
-    assert outcome.status == "ok"
-    return transitions(records)
+def in_process_transitions(dam_runs: DamRuns) -> list[str]:
+    """The dam mission in process with the vehicle's seed (SEED): tests/dam_runs.py's run,
+    made once per test run for this file, test_mavlink.py and the stack's tests."""
+    assert SEED == 1  # the seed of dam_runs["dam"]
+    dam = dam_runs["dam"]
+    assert dam.outcome.status == "ok"
+    return transitions(dam.records)
 
 
 def run_over_zenoh(compiled: Any, endpoint: str, observer: Any = None, max_time: float = 3000,
@@ -207,7 +205,9 @@ def test_the_vehicle_tells_the_player_its_behaviours_progress() -> None:
     """Issue 25: the behaviours telemetry carries each active behaviour's progress, which the
     player's adapter gives the mission status (a GoTo's distance to its target)."""
     endpoint = free_endpoint()
-    with vehicle_process(endpoint), ZenohVehicle(endpoint, "auv") as vehicle:
+    # at 20x: the telemetry (5 a second) tells the progress every 4 s of vehicle time, 2 m of
+    # travel (at 100x, 10 m: the first told could already be under 15 m to go)
+    with vehicle_process(endpoint, speed=20), ZenohVehicle(endpoint, "auv") as vehicle:
         assert vehicle.progress() == {}
         vehicle.send(ActionMessage(0, vehicle.now(), "m", "GoTo@1:1", "enable", "GoTo",
                                    {"x": -1.5, "y": 20.0, "z": 2.0, "yaw": 0.0,

@@ -40,7 +40,12 @@ def test_no_failsafe_after_a_mission_that_ended(tmp_path: Path) -> None:
             assert result.returncode == 0, result.stdout + result.stderr
             assert "ended OK" in result.stdout
             ended = len(states)
-            time.sleep(PLAYER_TIMEOUT + budget(1.0))  # well past the failsafe's delay
+            # the vehicle has seen the player's token go once its telemetry says so; a failsafe
+            # would come PLAYER_TIMEOUT after that: wait well past it from then
+            deadline = time.monotonic() + budget(1.0)
+            while time.monotonic() < deadline and all(s["player"] for s in states[ended:]):
+                time.sleep(0.02)
+            time.sleep(PLAYER_TIMEOUT + budget(0.1))
             after = states[ended:]
             sub.undeclare()
         finally:

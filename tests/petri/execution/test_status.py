@@ -40,9 +40,33 @@ def test_task_calls_are_the_missions_in_source_order() -> None:
     assert lines == sorted(lines) and len(calls) == len(set(calls)) == 15
 
 
+@pytest.fixture(scope="module")
+def watched() -> tuple[list[dict[str, Any]], list[Record], Player, list[dict[str, Any]]]:
+    """The dam mission (seed 1) run once, watched by two operators' statuses: one published
+    at each change, as run_dam's; one also every minute of mission time with the vehicle's
+    progress. A status only reads the player and the vehicle: one run serves the two tests
+    below, each reading its own (the run took 7 s of CPU each time)."""
+    compiled = compile_file(DAM, require_values=True)
+    player = Player(compiled.net)
+    published: list[dict[str, Any]] = []
+    ticked: list[dict[str, Any]] = []
+    records: list[Record] = []
+    player.observers += [records.append,
+                         MissionStatus(player, "dam_inspection", "r1", published.append)]
+    stack = IctineuStack(StackConfig(seed=1))
+    with InProcess(stack) as vehicle:
+        status = MissionStatus(player, "dam_inspection", "r1", ticked.append,
+                               progress=vehicle.progress, every=60.0)
+        player.observers.append(status)
+        run(player, vehicle, "dam_inspection", rounds=[status.tick])
+    return published, records, player, ticked
+
+
 @pytest.mark.slow
-def test_the_status_follows_the_survey_to_its_end() -> None:
-    published, records, player = run_dam()
+def test_the_status_follows_the_survey_to_its_end(
+        watched: tuple[list[dict[str, Any]], list[Record], Player, list[dict[str, Any]]]
+        ) -> None:
+    published, records, player, _ = watched
     first, last = published[0], published[-1]
     assert first["status"] == "running" and first["done"] == 0 and first["t"] == 0
     assert last["status"] == "ok" and last["running"] == [] and last["behaviours"] == []
@@ -103,16 +127,10 @@ def test_a_timer_shows_while_it_runs_with_its_time_left(tmp_path: Any) -> None:
 
 
 @pytest.mark.slow
-def test_the_survey_reports_its_waypoint_and_distance_to_go() -> None:
-    compiled = compile_file(DAM, require_values=True)
-    player = Player(compiled.net)
-    published: list[dict[str, Any]] = []
-    stack = IctineuStack(StackConfig(seed=1))
-    with InProcess(stack) as vehicle:
-        status = MissionStatus(player, "dam_inspection", "r1", published.append,
-                               progress=vehicle.progress, every=60.0)
-        player.observers.append(status)
-        run(player, vehicle, "dam_inspection", rounds=[status.tick])
+def test_the_survey_reports_its_waypoint_and_distance_to_go(
+        watched: tuple[list[dict[str, Any]], list[Record], Player, list[dict[str, Any]]]
+        ) -> None:
+    published = watched[3]  # the status with the vehicle's progress, every minute
     survey = [r["progress"] for s in published for r in s["running"]
               if r["task"] == "WallInspect@39:13" and "progress" in r]
     assert len(survey) >= 10  # one a minute of a survey of about 20 min

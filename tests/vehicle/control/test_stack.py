@@ -5,100 +5,46 @@ time, and the same through the real ``mcl run`` command.
 What is checked: the mission ends ok with the events of a good survey in order; the survey's
 figures against the order of magnitude of paper 002's field trial (§7: a 191 m path, 40 m² of
 wall, images overlapping by more than 50 %) and the accuracy targets (navigator < 0.5 m RMS
-horizontally; wall tracker < 0.10 m and < 2 deg RMS during the survey); determinism for a
-seed; injected faults running the CATCH to the surface; unknown behaviours recorded, not
-crashing; nothing left enabled at the end; a well-formed SVG plot; the CLI's --inject.
+horizontally; wall tracker < 0.10 m and < 2 deg RMS during the survey); unknown behaviours
+recorded, not crashing; a well-formed SVG plot; the CLI's --inject. Determinism for a seed:
+test_stack_determinism.py; injected faults running the CATCH to the surface and nothing left
+enabled at the end: test_stack_faults.py (three files, so that two test workers share them).
 
-The full runs are slow (5-10 s each): each one is made once, in a module-scoped fixture.
-Nothing here depends on wall-clock time.
+The full runs are slow (5-10 s each): each one is made once per test run, shared by the three
+files and the adapters' tests (tests/dam_runs.py). Nothing here depends on wall-clock time.
 """
 
 from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar
 
 import pytest
 
 import behaviours as bh
 from mcl.api import compile_file
-from petri.execution.player import Player, Record
 from petri.execution.replay import check
-from petri.execution.runlog import RunLog, net_digest, read_log
-from petri.execution.runner import Outcome, run
-from tests.support import MISSIONS, cli
+from petri.execution.runlog import read_log
+from tests.dam_runs import DAM, DamRuns, Run, run_mission
+from tests.in_process import mcl_in_process
 from vehicle.world.robot import Environment
 from vehicle.control.stack import DT, IctineuStack, StackConfig
 from vehicle.world.survey import Survey
 from aal.messages import ActionMessage, EventMessage
 from vehicle_adapters.inprocess import InProcess
 
-DAM = MISSIONS / "dam_inspection.mcl"
 SVG = "{http://www.w3.org/2000/svg}"
 GOOD_SURVEY = ["GoTo.reached", "AchieveHeadDist.achieved", "WallInspection.done",
                "GoTo.reached"]
 
 
-@dataclass
-class Run:
-    outcome: Outcome
-    records: list[Record]
-    stack: IctineuStack
-    log: Path
-
-    def causes(self) -> list[tuple[float, str]]:
-        """What fired the transitions that did not fire immediately: events and timers."""
-        return [(r.t, r.data["cause"]) for r in self.records
-                if r.kind == "fire" and r.data["cause"] != "immediate"]
-
-    def events(self) -> list[str]:
-        return [r.data["event"] for r in self.records if r.kind == "event"]
-
-
-def run_mission(path: Path, log: Path, seed: int = 1, faults: list[tuple[str, float]] | None = None,
-                max_time: float = 86_400.0) -> Run:
-    compiled = compile_file(str(path), require_values=True)
-    name = compiled.mission.name or path.stem
-    stack = IctineuStack(StackConfig(seed=seed, faults=faults or []))
-    player = Player(compiled.net)
-    records: list[Record] = []
-    player.observers.append(records.append)
-    header = {"mission": name, "net": net_digest(compiled.net), "seed": seed}
-    with RunLog(log, header) as runlog, InProcess(stack) as vehicle:
-        player.observers.append(runlog)
-        outcome = run(player, vehicle, name, max_time=max_time)
-    return Run(outcome, records, stack, log)
-
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Run]:
-    """The dam mission, once per case (lazily: each test asks only for what it needs)."""
-    return _Runs(tmp_path_factory.mktemp("stack"))
-
-
-class _Runs(dict[str, Run]):
-    CASES: ClassVar[dict[str, dict[str, Any]]] = {
-        "dam": {},
-        "dam again": {},
-        "leak@600": {"faults": [("leak", 600.0)]},
-        "overtemperature@300": {"faults": [("overtemperature", 300.0)]},
-        "overpressure@300": {"faults": [("overpressure", 300.0)]},
-        "seed 2, 60 s": {"seed": 2, "max_time": 60.0},
-        "seed 1, 60 s": {"seed": 1, "max_time": 60.0},
-    }
-
-    def __init__(self, folder: Path):
-        super().__init__()
-        self.folder = folder
-
-    def __missing__(self, case: str) -> Run:
-        kw = self.CASES[case]
-        result = run_mission(DAM, self.folder / f"{case.replace(' ', '_')}.jsonl", **kw)
-        self[case] = result
-        return result
+def runs(dam_runs: DamRuns) -> DamRuns:
+    """The dam mission, once per case (lazily: each test asks only for what it needs), made
+    once per test run (tests/dam_runs.py)."""
+    return dam_runs
 
 
 # --- a good survey ------------------------------------------------------------------------------
@@ -162,85 +108,6 @@ def test_the_vehicle_ends_at_the_recovery_point(runs: dict[str, Run]) -> None:
     assert math.dist((state.x, state.y, state.z), (-5.0, 7.5, 0.5)) < 1.0  # tolerance 0.5 m
 
 
-@pytest.mark.slow
-def test_no_behaviour_is_left_active_at_the_end(runs: dict[str, Run]) -> None:
-    for case in ("dam", "leak@600"):
-        stack = runs[case].stack
-        assert {n: b.active for n, b in stack.behaviours.items()} == {
-            n: False for n in stack.behaviours}, case
-        assert not stack.sensors.camera.on, case
-
-
-# --- determinism ----------------------------------------------------------------------------
-@pytest.mark.slow
-def test_the_same_seed_gives_the_same_log(runs: dict[str, Run]) -> None:
-    a, b = runs["dam"], runs["dam again"]
-    assert a.records == b.records
-    assert a.log.read_text("utf-8") == b.log.read_text("utf-8")
-    assert a.stack.survey.truth == b.stack.survey.truth
-    assert a.stack.survey.summary() == b.stack.survey.summary()
-
-
-@pytest.mark.slow
-def test_a_different_seed_gives_a_different_trajectory(runs: dict[str, Run]) -> None:
-    one, two = runs["seed 1, 60 s"], runs["seed 2, 60 s"]
-    assert one.outcome.status == two.outcome.status == "timeout"
-    # a run cut short is the start of the full run up to its limit (then its ON STOP surfaces)
-    n = sum(1 for sample in one.stack.survey.truth if sample[0] <= 60.0)
-    assert 0 < n < len(one.stack.survey.truth)
-    assert one.stack.survey.truth[:n] == runs["dam"].stack.survey.truth[:n]
-    # ... and another seed moves the vehicle differently from the first tick on
-    a = one.stack.survey.truth[:n]  # up to the limit: the surfacing after it differs too
-    b = [sample for sample in two.stack.survey.truth if sample[0] <= 60.0]
-    assert len(a) == len(b)
-    assert a != b
-    largest = max(math.dist(p[1:], q[1:]) for p, q in zip(a, b))
-    assert largest > 0.01
-    assert [c for _, c in two.causes()][:1] == ["GoTo.reached"]  # the same mission, though
-
-
-@pytest.mark.slow
-def test_a_fault_changes_nothing_before_it_happens(runs: dict[str, Run]) -> None:
-    # every sensor draws from its own stream: the housing's fault leaves the rest unchanged
-    ok, leak = runs["dam"].stack.survey.truth, runs["leak@600"].stack.survey.truth
-    before = [p for p in ok if p[0] <= 599.0]
-    assert before == leak[:len(before)]
-
-
-# --- faults ---------------------------------------------------------------------------------
-@pytest.mark.slow
-def test_a_leak_at_600_s_runs_the_catch_and_surfaces(runs: dict[str, Run]) -> None:
-    r = runs["leak@600"]
-    assert r.outcome.status == "ok", r.outcome  # the CATCH ... DO handles it
-    causes = r.causes()
-    assert [c for _, c in causes] == ["GoTo.reached", "AchieveHeadDist.achieved", "Alarms.leak",
-                                      "Surface.surfaced"]
-    leak_t = causes[2][0]
-    assert 600.0 <= leak_t <= 600.0 + 1.0 + 2 * DT  # the housing monitor reads at 1 Hz
-    assert causes[3][0] - leak_t < 300.0  # within the Surface task's 5 min
-    assert r.stack.robot.state.z < 0.5  # true depth
-    # the survey was cut short: no WallInspection.done, no recovery GoTo
-    assert "WallInspection.done" not in r.events()
-    actions = [(rec.data["action"], rec.data["behaviour"]) for rec in r.records
-               if rec.kind == "action" and rec.t >= leak_t]
-    assert ("disable", "WallInspection") in actions and ("enable", "Surface") in actions
-    assert actions.index(("disable", "WallInspection")) < actions.index(("enable", "Surface"))
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("fault, alarm_after", [("overtemperature", 60.0),
-                                                ("overpressure", 50.0)])
-def test_overtemperature_and_overpressure_run_the_catch_too(runs: dict[str, Run], fault: str,
-                                                            alarm_after: float) -> None:
-    # from 20 deg C at 0.5 deg C/s over 50 deg C; from 1.0 bar at 0.01 bar/s over 1.5 bar
-    r = runs[f"{fault}@300"]
-    assert r.outcome.status == "ok", r.outcome
-    causes = r.causes()
-    assert [c for _, c in causes] == ["GoTo.reached", "AchieveHeadDist.achieved",
-                                      f"Alarms.{fault}", "Surface.surfaced"]
-    assert causes[2][0] == pytest.approx(300.0 + alarm_after, abs=3.0)
-    assert r.stack.robot.state.z < 0.5
-    assert not any(b.active for b in r.stack.behaviours.values())
 
 
 def test_an_unknown_fault_is_refused() -> None:
@@ -401,37 +268,16 @@ def no_traceback(result: object) -> None:
     assert "internal error" not in out, out
 
 
-@pytest.mark.slow
-def test_mcl_run_with_a_leak_exits_0_reports_the_survey_and_replays(tmp_path: Path) -> None:
-    log = tmp_path / "dam_leak.jsonl"
-    result = cli("mcl", "run", "missions/dam_inspection.mcl", "--inject", "leak@600",
-                 "--log", str(log), "--quiet", "--no-images")  # the mosaic: test_mosaic.py
-    assert result.returncode == 0, result.stdout + result.stderr
-    no_traceback(result)
-    out = result.stdout
-    assert "mission dam_inspection ended OK" in out
-    assert f"run log: {log}" in out
-    assert "path " in out and " m; wall imaged " in out and "in two or more" in out
-    assert "navigator error " in out and "wall tracker error " in out
-    plot = log.with_suffix(".svg")
-    assert f"trajectory plot: {plot}" in out
-    assert "→" not in out  # --quiet: no timeline
-    assert plot.exists()
-    assert ET.parse(plot).getroot().findall(f"{SVG}polyline")
-    assert [r.get("event") for r in read_log(log) if r.get("kind") == "event"] == [
-        "GoTo.reached", "AchieveHeadDist.achieved", "Alarms.leak", "Surface.surfaced"]
-    replay = cli("mcl", "replay", str(log), "missions/dam_inspection.mcl")
-    assert replay.returncode == 0, replay.stdout + replay.stderr
-    assert "conforms" in replay.stdout
 
 
-@pytest.mark.slow
+
+
 @pytest.mark.parametrize("inject", ["flood@10", "leak@-3", "leak", "leak@", "@600", "leak@soon",
                                     "leak@nan"])
 def test_mcl_run_refuses_a_bad_inject(tmp_path: Path, inject: str) -> None:
-    log = tmp_path / "bad.jsonl"
-    result = cli("mcl", "run", "missions/dam_inspection.mcl", "--inject", inject,
-                 "--log", str(log), "--quiet")
+    log = tmp_path / "bad.jsonl"  # in process: test_stack_faults.py starts mcl run for real
+    result = mcl_in_process("run", "missions/dam_inspection.mcl", "--inject", inject,
+                            "--log", str(log), "--quiet")
     assert result.returncode == 2, result.stdout + result.stderr
     no_traceback(result)
     assert f"--inject {inject}" in result.stderr and "leak@600" in result.stderr

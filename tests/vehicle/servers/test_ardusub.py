@@ -28,6 +28,7 @@ from pymavlink import mavutil  # noqa: E402
 from aal import signing  # noqa: E402
 from vehicle.servers import ardusub  # noqa: E402
 
+from tests.in_process import mcl_in_process  # noqa: E402
 from tests.support import REPO, budget, first_line, free_udp_port  # noqa: E402
 
 pytestmark = pytest.mark.slow  # the ArduSub-like vehicle as a real process: not in make test-quick
@@ -393,12 +394,10 @@ def test_load_key_forms_and_errors(tmp_path: Path, monkeypatch: pytest.MonkeyPat
      "no such signing key file"),
     (["--mavlink", "udpout:127.0.0.1:14550", "--require-signing"], "needs a key"),
 ])
-def test_bad_input_is_one_line_and_status_2(args: list[str], message: str) -> None:
-    env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
-    env.pop(signing.ENV_KEY, None)
-    done = subprocess.run([sys.executable, "-m", "app.mcl", "vehicle", *args],
-                          capture_output=True, text=True, timeout=budget(6), cwd=REPO, env=env,
-                          stdin=subprocess.DEVNULL)
+def test_bad_input_is_one_line_and_status_2(args: list[str], message: str,
+                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv(signing.ENV_KEY, raising=False)  # in process: the tests above start it
+    done = mcl_in_process("vehicle", *args)
     assert done.returncode == 2
     assert done.stderr.startswith("mcl vehicle: error: ") and message in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1 and not done.stdout

@@ -1,0 +1,93 @@
+"""What every test file shares: the ``once`` fixture, a value computed once per test run
+(tests/once.py); ``dam_runs``, the dam mission run in process by case (tests/dam_runs.py); and
+the order of the files, longest first, in which ``make test`` hands them to its workers."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from tests.dam_runs import DamRuns
+from tests.once import Once
+
+
+@pytest.fixture(scope="session")
+def once(tmp_path_factory: pytest.TempPathFactory) -> Once:
+    """:class:`Once` in this run's temporary folder, the one its xdist workers share."""
+    base = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        base = base.parent  # each worker's own is a subfolder of the run's
+    return Once(base / "once")
+
+
+@pytest.fixture(scope="session")
+def dam_runs(once: Once) -> DamRuns:
+    """The dam mission's runs in process by case (tests/dam_runs.py), once per test run."""
+    return DamRuns(once)
+
+
+# -- the order of the files -------------------------------------------------------------------
+# ``make test`` gives pytest-xdist's two workers whole files (--dist loadfile), in collection
+# order (--no-loadscope-reorder; xdist's own order, most tests first, put few long tests last:
+# the Zenoh and MAVLink files ran alone at the end while the other worker waited). Longest first
+# makes the workers end together: what is left at the end is short. A file's length is its
+# measured seconds below, else an estimate from its tests: a test marked slow takes a second or
+# more on an idle machine (its marker's meaning), about 1.5 on the scale of the seconds below,
+# another a few hundredths. The seconds: each package's files run by one worker, the two cores
+# loaded by other work (3-6 jobs): ranks, not an idle machine's figures; files of 8 s and more.
+# test_zenoh.py is put below the files of its length: it begins with the dam run in process
+# that test_mavlink.py, near the top, begins with too (tests/dam_runs.py makes it once for
+# both); beside it, it would wait for it.
+SECONDS: dict[str, float] = {
+    "tests/petri/test_mcc.py": 107,  # with ../shared/mcc, the contest's models (else skipped)
+    "tests/vehicle_adapters/test_mavlink.py": 96,
+    "tests/app/test_safe_exit.py": 59,
+    "tests/app/lsp/test_server.py": 58,
+    "tests/vehicle_adapters/test_zenoh.py": 57,  # 62: see above
+    "tests/mcl/test_routes.py": 45,
+    "tests/petri/verification/test_memory_budget.py": 38,
+    "tests/aal/test_zenoh_security.py": 37,
+    "tests/petri/verification/test_explore_parallel.py": 33,
+    "tests/mcl/test_properties.py": 32,
+    "tests/app/test_fuzz_commands.py": 31,
+    "tests/vehicle/control/test_stack_faults.py": 28,
+    "tests/vehicle/control/test_stack_determinism.py": 25,
+    "tests/petri/execution/test_status.py": 24,
+    "tests/app/test_export.py": 20,
+    "tests/vehicle/control/test_stack.py": 20,
+    "tests/test_layers.py": 20,
+    "tests/petri/verification/test_reachability.py": 20,
+    "tests/mission/test_concurrent.py": 19,
+    "tests/mcl/analysis/test_latches.py": 19,
+    "tests/vehicle/world/test_seabed.py": 18,
+    "tests/petri/execution/test_replay.py": 18,
+    "tests/app/test_run_cli.py": 17,
+    "tests/app/test_no_vehicle.py": 17,
+    "tests/mosaic/test_mosaic_input.py": 16,
+    "tests/vehicle_adapters/test_mavlink_replay.py": 16,
+    "tests/app/test_streams.py": 14,
+    "tests/petri/verification/test_timed.py": 14,
+    "tests/vehicle/servers/test_ardusub.py": 13,
+    "tests/app/test_run_foxglove.py": 13,
+    "tests/app/test_run_progress.py": 12,
+    "tests/mission/test_stop_handler.py": 9,
+    "tests/app/test_bad_input.py": 9,
+    "tests/petri/test_counterexamples.py": 9,
+    "tests/petri/test_semantics.py": 8,
+}
+SLOW_TEST, QUICK_TEST = 1.5, 0.05
+
+
+def file_of(item: pytest.Item) -> str:
+    return item.nodeid.split("::", 1)[0]
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The files longest first, each file's tests in their own order (a stable sort)."""
+    length: dict[str, float] = {}
+    for item in items:
+        test = SLOW_TEST if item.get_closest_marker("slow") else QUICK_TEST
+        length[file_of(item)] = length.get(file_of(item), 0.0) + test
+    length.update((name, s) for name, s in SECONDS.items() if name in length)
+    items.sort(key=lambda item: -length[file_of(item)])
