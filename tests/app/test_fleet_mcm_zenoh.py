@@ -29,17 +29,27 @@ SEED = 3
 
 
 @contextmanager
-def world(asv: str, uuv: str) -> Iterator[subprocess.Popen[str]]:
+def world(asv: str, uuv: str, *extra: str) -> Iterator[subprocess.Popen[str]]:
     with started([sys.executable, "-m", "app.mcl", "vehicle", "--world", "mcm", "--zenoh",
-                  f"{asv},{uuv}", "--speed", str(SPEED), "--seed", str(SEED)]) as proc:
+                  f"{asv},{uuv}", "--speed", str(SPEED), "--seed", str(SEED), *extra]) as proc:
         yield proc
 
 
+def secured(folder: Path) -> tuple[list[str], list[str]]:
+    """The world's options and each player's with access control: one player user for both
+    (docs/ZENOH_SECURITY.md), each vehicle's channels from the fleet."""
+    (folder / "users.txt").write_text("player:pilot-secret\noperator:watch\n")
+    (folder / "player.pw").write_text("pilot-secret\n")
+    return (["--users", str(folder / "users.txt"), "--fleet", str(MISSION)],
+            ["--user", "player", "--password-file", str(folder / "player.pw")])
+
+
 def player(name: str, endpoint: str, logs: Path, *extra: str) -> subprocess.Popen[str]:
+    env = {k: v for k, v in subprocess_env().items() if k != "MCL_ZENOH_PASSWORD"}
     return subprocess.Popen(
         [sys.executable, "-m", "app.mcl", "run", str(MISSION), "--as", name, "--vehicle",
          f"zenoh:{endpoint}", "--seed", str(SEED), "--log-dir", str(logs), "--quiet", *extra],
-        cwd=REPO, env=subprocess_env(), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+        cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True)
 
 
@@ -72,10 +82,12 @@ def stopped(proc: subprocess.Popen[str]) -> str:
 
 
 def test_the_uuv_is_guided_to_the_mine_and_lands_and_both_logs_replay(tmp_path: Path) -> None:
+    """Secured: each player may put only its actions, its channels and its modem's keys."""
     logs, asv, uuv = tmp_path / "run", free_endpoint(), free_endpoint()
-    with world(asv, uuv) as vehicles:
-        uuv_player = player("uuv", uuv, logs, "--fleet-vehicle", f"asv={asv}")
-        asv_player = player("asv", asv, logs)
+    served, login = secured(tmp_path)
+    with world(asv, uuv, *served) as vehicles:
+        uuv_player = player("uuv", uuv, logs, "--fleet-vehicle", f"asv={asv}", *login)
+        asv_player = player("asv", asv, logs, *login)
         with players(uuv_player, asv_player):
             _, err_u = uuv_player.communicate(timeout=budget(10))
             _, err_a = asv_player.communicate(timeout=budget(5))
@@ -117,3 +129,20 @@ def test_with_the_asvs_player_killed_mid_guidance_the_uuv_ascends(tmp_path: Path
     ends = [r for r in records(logs / "uuv.jsonl") if r.get("kind") == "end"]
     assert ends and ends[-1]["status"] == "ok", ends
     assert "ended: ascended" in said, said
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["--zenoh", "tcp/127.0.0.1:9"], "--world mcm serves two vehicles"),
+    (["--zenoh", "tcp/127.0.0.1:9,tcp/127.0.0.1"], "has no port"),
+    (["--zenoh", "tcp/127.0.0.1:9,tcp/127.0.0.1:8", "--inject", "leak@5"],
+     "expected clutter@SECONDS"),
+    (["--zenoh", "tcp/127.0.0.1:9,tcp/127.0.0.1:8", "--name", "a,b", "--fleet",
+      str(MISSION)], "fleet mcm has no vehicle 'a'"),
+])
+def test_a_bad_world_option_is_one_line_and_exit_2(argv: list[str], said: str) -> None:
+    result = subprocess.run([sys.executable, "-m", "app.mcl", "vehicle", "--world", "mcm",
+                             *argv], capture_output=True, text=True, timeout=budget(3),
+                            cwd=REPO, env=subprocess_env(), stdin=subprocess.DEVNULL)
+    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
+    errors = [line for line in result.stderr.splitlines() if "error:" in line]
+    assert len(errors) == 1 and said in errors[0], result.stderr
