@@ -132,7 +132,8 @@ def keys(vehicle: str) -> dict[str, str]:
             "clock": f"{base}/telemetry/clock", "telemetry": f"{base}/telemetry",
             "status": f"{base}/mission/status", "alive_vehicle": f"{base}/alive/vehicle",
             "capabilities": f"{base}/capabilities",
-            "alive_player": f"{base}/alive/player", "alive": f"{base}/alive"}
+            "alive_player": f"{base}/alive/player", "alive": f"{base}/alive",
+            "modem_payload": f"{base}/modem/payload", "modem_heard": f"{base}/modem/heard"}
 
 
 def zenoh_config(endpoint: str = DEFAULT_ENDPOINT, mode: str = "peer", *,

@@ -39,6 +39,9 @@ DEFAULT_PLAYER = "player"  # the user name / certificate common name allowed to 
 ACTION_KEYS = ["mcl/*/aal/action"]
 STATUS_KEYS = ["mcl/*/mission/status"]
 PLAYER_TOKEN_KEYS = ["mcl/*/alive/player/**"]  # mcl/<v>/alive/player/<run>
+# A fleet vehicle's modem (vehicle_adapters/zenoh_modem.py): its player asks what a message
+# it sends carries and tells it what was delivered.
+MODEM_KEYS = ["mcl/*/modem/payload", "mcl/*/modem/heard"]
 ALL_KEYS = ["mcl/**"]
 # A fleet's channels (vehicle_adapters/zenoh_channels.py): mcl/fleet/<fleet>/channel/<channel>;
 # on a vehicle, its player may put on the channels its vehicle sends on, and on no other.
@@ -318,7 +321,8 @@ def access_control(security: Security) -> dict[str, Any]:
     vehicle's own publications, token and declarations out, and what it routes between the
     player and a monitor connected as a client (status, queries and replies). In a fleet, the
     player also puts on the channels its vehicle sends on (``channels``), which the vehicle
-    routes to the receivers' carriers, its clients (vehicle_adapters/zenoh_channels.py).
+    routes to the receivers' carriers, its clients (vehicle_adapters/zenoh_channels.py), and
+    asks and tells its vehicle's modem (``MODEM_KEYS``).
     """
     player: dict[str, Any] = {"id": "player"}
     readers: dict[str, Any] = {"id": "readers"}
@@ -333,6 +337,7 @@ def access_control(security: Security) -> dict[str, Any]:
         _rule("player answers status queries", "ingress", ["declare_queryable", "reply"],
               STATUS_KEYS),
         _rule("player's token", "ingress", ["liveliness_token"], PLAYER_TOKEN_KEYS),
+        _rule("player asks and tells its modem", "ingress", ["put", "query"], MODEM_KEYS),
         *([_rule("player puts on its channels", "ingress", ["put"], list(security.channels))]
           if security.channels else []),
         _rule("readers subscribe", "ingress",
@@ -344,7 +349,7 @@ def access_control(security: Security) -> dict[str, Any]:
                "liveliness_token", "declare_liveliness_subscriber", "liveliness_query"],
               ALL_KEYS),
     ]
-    mine = 4 if security.channels else 3  # the player's rules come first
+    mine = 5 if security.channels else 4  # the player's rules come first
     return {
         "enabled": True,
         "default_permission": "deny",

@@ -48,6 +48,7 @@ from mission.vehicle import Vehicle
 from petri.execution.player import Order
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
+from vehicle_adapters import zenoh_modem as modem
 from vehicle_adapters.zenoh_channels import ChannelUnreachable, Position, ZenohCarrier, channel_key
 from vehicle_adapters.zenoh_link import ZenohVehicle
 
@@ -173,6 +174,8 @@ class Member:
             until if due is None else min(until, due))]
         for at, msg in self.carrier.deliveries(self.name, self.inner.now()):
             data = {**msg.data, "sent": msg.sent}
+            if self.inner.session is not None:  # its vehicle's modem hears it (the UUV's fix)
+                modem.heard(self.inner.session, self.name, msg.channel, msg.message, data, at)
             events.append(self.renumbered(EventMessage(0, at, msg.channel, msg.message, data)))
         return events
 
@@ -322,9 +325,11 @@ def play(args: argparse.Namespace, compiled: Compiled, member: Member, zv: Zenoh
     def send(order: Order) -> None:
         t = clock.vehicle(order.t)  # the vehicle's clock at the Send, as its log says it
         where = member.position()
-        data = {"position": list(where)} if where is not None else {}
-        member.carrier.send(Message(order.behaviour, str(order.params.get("message", "")),
-                                    member.name, next(seq), t, data))
+        message = str(order.params.get("message", ""))
+        data: dict[str, Any] = {"position": list(where)} if where is not None else {}
+        if zv.session is not None:  # what its vehicle's modem says the message carries
+            data.update(modem.payload(zv.session, member.name, order.behaviour, message, t))
+        member.carrier.send(Message(order.behaviour, message, member.name, next(seq), t, data))
 
     chosen = Vehicle(member, declares=Declares(zv, compiled, list(fleet.channels)), link=zv, status=zv,
                      where=f"zenoh:{endpoint}")

@@ -2,9 +2,12 @@
 
     mcl vehicle --zenoh ENDPOINT [--name auv] [--speed 10] [--seed 1] [--inject leak@600] ...
     mcl vehicle --mavlink URL [--speed 10] [--seed 1] [--inject leak@600] ...
+    mcl vehicle --world mcm --zenoh ASV_ENDPOINT,UUV_ENDPOINT [--seed 1] [--inject clutter@60]
 
 Over Zenoh the server is :mod:`vehicle.servers.zenoh_server` (docs/ZENOH.md); over MAVLink 2 the
-ArduSub-like vehicle of :mod:`vehicle.servers.ardusub` (docs/MAVLINK.md). Both print ``vehicle auv
+ArduSub-like vehicle of :mod:`vehicle.servers.ardusub` (docs/MAVLINK.md); ``--world mcm``
+serves paper 003's ASV and UUV, of one simulated world, each on its own Zenoh endpoint
+(:mod:`vehicle.servers.mcm_server`, docs/FLEET_ZENOH.md). Both print ``vehicle auv
 ready on ...`` when ready and their summary when stopped (SIGTERM, SIGINT). Its exit statuses
 (stopped, invalid input: one line naming the option): docs/EXIT.md.
 """
@@ -26,6 +29,7 @@ from mission.exits import Exit
 from app import arguments, zenoh_options
 
 LOG_LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL")
+WORLDS = ("ictineu", "mcm")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -66,8 +70,13 @@ def _zenoh_parser() -> argparse.ArgumentParser:
     p.add_argument("--name", default="auv", help="vehicle name in the keys (default auv)")
     p.add_argument("--speed", type=float, default=10.0, help="times wall time (default 10)")
     p.add_argument("--seed", type=arguments.seed, default=1)
-    p.add_argument("--inject", action="append", default=[], type=fault_argument,
-                   metavar="FAULT@SECONDS")
+    p.add_argument("--inject", action="append", default=[], metavar="FAULT@SECONDS",
+                   help="a fault (the Ictineu's, e.g. leak@600; with --world mcm: "
+                        "clutter@S, falsetarget@S, current=VX,VY)")
+    p.add_argument("--world", choices=WORLDS, default="ictineu",
+                   help="ictineu (default): one simulated Ictineu; mcm: paper 003's ASV and "
+                        "UUV in one world, --zenoh ASV_ENDPOINT,UUV_ENDPOINT, --name asv,uuv "
+                        "(docs/FLEET_ZENOH.md)")
     p.add_argument("--player-timeout", type=float, default=3.0, metavar="WALL_SECONDS",
                    help="surface after the player has been gone this long (default 3)")
     p.add_argument("--no-wait", action="store_true",
@@ -94,10 +103,16 @@ def zenoh_main(argv: list[str]) -> int:
         security = zenoh_options.from_args(args, "vehicle")
     except ValueError as exc:
         p.error(str(exc))
+    try:
+        args.inject = faults_of(args.world, args.inject)
+    except ValueError as exc:
+        p.error(f"argument --inject: {exc}")
     problem = _zenoh_problem(args)
     if problem:
         print(problem, file=sys.stderr)
         return Exit.INVALID
+    if args.world == "mcm":
+        return mcm_main(args, security)
     if args.fleet is not None:  # the channels its player may put on (app/fleet_zenoh.py)
         from app.fleet_zenoh import sent_keys  # start-up speed: it compiles the fleet
         from diagnostics import MclError
@@ -126,6 +141,67 @@ def zenoh_main(argv: list[str]) -> int:
     return Exit.OK
 
 
+def faults_of(world: str, given: list[str]) -> list[tuple[str, Any]]:
+    """``--inject`` for the world served; ValueError saying what to write."""
+    if world == "mcm":
+        from vehicle.control.mcm_stack import parse_mcm_fault  # start-up speed: numpy
+
+        return [parse_mcm_fault(text) for text in given]
+    from vehicle.control.stack import parse_fault
+
+    return [parse_fault(text) for text in given]
+
+
+def world_names(args: argparse.Namespace) -> list[str]:
+    """The names of paper 003's two vehicles: ``--name ASV,UUV``, default asv,uuv (the
+    vehicles of missions/mcm.mcl)."""
+    return args.name.split(",") if args.name != "auv" else ["asv", "uuv"]
+
+
+def mcm_main(args: argparse.Namespace, security: Any) -> int:
+    """``mcl vehicle --world mcm``: paper 003's ASV and UUV, one world, two endpoints."""
+    import zenoh
+
+    from aal.zenoh import zenoh_error
+    from vehicle.servers.mcm_server import McmServer
+
+    endpoints, names = args.zenoh.split(","), world_names(args)
+    if len(endpoints) != 2 or len(names) != 2 or len(set(names)) != 2:
+        print(f"--zenoh {args.zenoh}: error: --world mcm serves two vehicles: give "
+              "--zenoh ASV_ENDPOINT,UUV_ENDPOINT (and --name ASV,UUV, default asv,uuv)",
+              file=sys.stderr)
+        return Exit.INVALID
+    secured: dict[str, Any] = {name: security for name in names}
+    if args.fleet is not None:  # the channels each player may put on (app/fleet_zenoh.py)
+        from app.fleet_zenoh import sent_keys  # start-up speed: it compiles the fleet
+        from diagnostics import MclError
+
+        try:
+            secured = {n: dataclasses.replace(security, channels=sent_keys(args.fleet, n))
+                       for n in names}
+        except MclError as exc:
+            print(exc.format(), file=sys.stderr)
+            return Exit.INVALID
+    logging.basicConfig(level=args.log_level.upper(),
+                        format="%(asctime)s vehicle %(levelname)s %(message)s")
+    stop, ready = _stop_on_signals(), threading.Event()
+    world = McmServer(endpoints, names, args.speed, args.seed, args.inject, stop=stop,
+                      player_timeout=args.player_timeout, wait_for_player=not args.no_wait,
+                      ready=ready, security=secured, scouting=args.scouting)
+    _announce(ready, "\n".join(f"vehicle {n} ready on {e}"
+                               for n, e in zip(names, endpoints, strict=True)))
+    try:
+        world.run()
+    except zenoh.ZError as exc:
+        print(f"--zenoh {args.zenoh}: error: {zenoh_error(exc)}", file=sys.stderr)
+        return Exit.INVALID
+    for server in world.servers:  # and its figures against the simulated ground truth
+        print(stopped(server.name, server), flush=True)
+        for what, figure in server.stack.figures().items():
+            print(f"  {what}: {figure}", flush=True)
+    return Exit.OK
+
+
 def stopped(name: str, server: Any) -> str:
     """What the Zenoh vehicle says when it stops: its simulated time, the actions it took,
     the stale ones and the invalid ones it dropped (no run id, not an action), and the
@@ -140,8 +216,11 @@ def _zenoh_problem(args: argparse.Namespace) -> str | None:
     """An option that parses but means nothing: one line naming it (exit 2), else None."""
     from aal.zenoh import option_error
 
-    if problem := option_error(args.zenoh, args.name):
-        return problem
+    served = (zip(args.zenoh.split(","), world_names(args), strict=False)
+              if args.world == "mcm" else [(args.zenoh, args.name)])
+    for endpoint, name in served:
+        if problem := option_error(endpoint, name):
+            return problem
     for option, value in (("--speed", args.speed), ("--player-timeout", args.player_timeout)):
         if not (math.isfinite(value) and value > 0):
             return f"{option} {value:g}: error: must be a positive number"

@@ -197,8 +197,10 @@ class Player:
         that instant still gets it: no event is lost to a tie)."""
         self.settle(now, before=True)
         self._clock = max(self._clock, now)
+        when = {} if raised is None else {"vt": raised}  # its time on the vehicle's clock
         if self.finished:
-            self._emit(now, "ignored", {"event": event, "reason": "the mission has ended"})
+            self._emit(now, "ignored", {"event": event, "reason": "the mission has ended",
+                                        **when})
             return 0
         waiting = self._waiting_for(event)
         if not waiting:
@@ -211,7 +213,7 @@ class Player:
                                                  "mission is aborted"})
         if not waiting:
             reason = "the mission has ended" if self.finished else "nobody waits for it"
-            self._emit(now, "ignored", {"event": event, "reason": reason})
+            self._emit(now, "ignored", {"event": event, "reason": reason, **when})
             return 0
         self._emit(now, "event", {"event": event, "data": data or {}} if raised is None else
                    {"event": event, "data": data or {}, "vt": raised})

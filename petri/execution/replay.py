@@ -59,7 +59,7 @@ NUMBER = (int, float)
 # Fields a record may carry, checked when it does (a library caller's end record may say less).
 OPTIONAL: dict[str, dict[str, type | tuple[type, ...]]] = {
     "event": {"vt": NUMBER, "data": dict},
-    "ignored": {"reason": str},
+    "ignored": {"reason": str, "vt": NUMBER},
     "end": {"exit": int, "status": str, "switched_off": list, "confirmed": str,
             "vehicle_t": NUMBER, "vehicle_t0": NUMBER, "limit": NUMBER, "limit_from": str,
             "handled": list},

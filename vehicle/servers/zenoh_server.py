@@ -30,6 +30,13 @@ the last taken from its run, is stale and dropped (counted in telemetry ``stale`
 that names no run is dropped as invalid (counted in ``dropped``). When a new
 run appears the vehicle first switches every behaviour off, so nothing a previous mission
 enabled is left on. A restarted vehicle process starts with every behaviour off.
+
+The modem (a fleet's vehicle, docs/FLEET_ZENOH.md): a stack with a side of a fleet's channels
+(``payload``, ``heard``: paper 003's ASV and UUV) answers the query ``mcl/<v>/modem/payload``
+(parameters ``channel``, ``message``, ``t``) with what a message it sends says, and takes
+``mcl/<v>/modem/heard`` (JSON ``{"channel", "message", "data", "t"}``: a message its player was
+delivered), both applied between ticks. ``vehicle/servers/mcm_server.py`` serves the two
+vehicles of one simulated world this way, on one clock.
 """
 
 from __future__ import annotations
@@ -45,7 +52,7 @@ from typing import Any
 
 import zenoh
 
-from aal.messages import ActionMessage, InvalidMessage
+from aal.messages import ActionMessage, Declaration, InvalidMessage
 from aal.zenoh import (
     DEFAULT_ENDPOINT,
     LEASE_MS,
@@ -68,9 +75,24 @@ class NewRun:
 
     run: str
 
+
+@dataclass
+class ModemCall:
+    """A modem's word asked or told by a player, applied in the loop between ticks: a
+    payload asked (``data`` None; answered in ``answer``, ``done`` set) or a message heard."""
+
+    channel: str
+    message: str
+    t: float
+    data: dict[str, Any] | None = None
+    answer: dict[str, Any] | None = None
+    done: threading.Event | None = None
+
+
 CLOCK_PERIOD = 0.02  # wall s between clock messages
 TELEMETRY_PERIOD = 0.2  # wall s between telemetry messages (5 Hz)
 MAX_SLEEP = 0.01  # wall s: the loop looks at stop, actions and the player at least this often
+MODEM_WAIT = 2.0  # wall s: the longest a payload query waits for the loop
 
 
 class VehicleServer:
@@ -82,16 +104,24 @@ class VehicleServer:
                  stop: threading.Event | None = None, player_timeout: float = 3.0,
                  wait_for_player: bool = True, lease_ms: int = LEASE_MS,
                  ready: threading.Event | None = None, security: Security | None = None,
-                 scouting: bool = False):
+                 scouting: bool = False, stack: Any = None,
+                 declaration: Declaration | None = None,
+                 safe: str | None = "Surface", dt: float = DT):
+        """``stack``: the simulated stack to serve (default the Ictineu's, of ``seed`` and
+        ``faults``), with ``declaration`` its behaviours; ``safe``: the behaviour it enables
+        when its player is lost (None: only switch every behaviour off); ``dt``: its tick."""
         if not speed > 0:
             raise ValueError("speed must be positive")
         self.endpoint = endpoint
         self.name = vehicle_name
         self.keys = keys(vehicle_name)
         self.speed = float(speed)
-        self.stack = IctineuStack(StackConfig(seed=seed, faults=list(faults)))
-        self.declaration = capabilities.simulated(f"{vehicle_name} (mcl vehicle --zenoh "
-                                                  f"{endpoint})", list(self.stack.behaviours))
+        self.stack: Any = stack if stack is not None else IctineuStack(
+            StackConfig(seed=seed, faults=list(faults)))
+        self.declaration = declaration or capabilities.simulated(
+            f"{vehicle_name} (mcl vehicle --zenoh {endpoint})", list(self.stack.behaviours))
+        self.safe, self.dt = safe, dt
+        self.modem = callable(getattr(self.stack, "payload", None))
         self.stop = stop or threading.Event()
         self.player_timeout = player_timeout
         self.wait_for_player = wait_for_player
@@ -99,7 +129,7 @@ class VehicleServer:
         self.security = security
         self.scouting = scouting
         self.ready = ready or threading.Event()
-        self._actions: queue.Queue[ActionMessage | NewRun] = queue.Queue()
+        self._actions: queue.Queue[ActionMessage | NewRun | ModemCall] = queue.Queue()
         self._lock = threading.Lock()
         self._player_present = threading.Event()
         self._player_gone_at: float | None = None  # monotonic, while the player is away
@@ -109,6 +139,7 @@ class VehicleServer:
         # new run never shows what the last one left on (the loop switches that off first)
         self._applied_run = ""
         self._ended: dict[str, str] = {}  # run -> how its mission ended (its last status)
+        self._begun: set[str] = set()  # the runs whose missions have said their status
         self._last_seq: dict[str, int] = {}  # per run: the last action seq taken
         self.stale = 0  # actions of another run, or replayed, dropped
         self.dropped = 0  # invalid actions dropped
@@ -180,8 +211,9 @@ class VehicleServer:
             run, how = str(status["run"]), str(status["status"])
         except (ValueError, KeyError, TypeError):
             return  # not a status this vehicle can read: nothing to remember
-        if how in ("ok", "fail"):
-            with self._lock:
+        with self._lock:
+            self._begun.add(run)
+            if how in ("ok", "fail"):
                 self._ended[run] = how
 
     def _on_capabilities(self, query: zenoh.Query) -> None:
@@ -190,33 +222,36 @@ class VehicleServer:
         query.reply(self.keys["capabilities"], json.dumps(
             {"vehicle": d.vehicle, "source": d.source, "text": d.text}))
 
+    def _on_payload(self, query: zenoh.Query) -> None:
+        """A player asks what a message it sends says (its Send): the stack's payload."""
+        try:
+            p = query.parameters
+            call = ModemCall(str(p["channel"]), str(p["message"]), float(str(p["t"])),
+                             done=threading.Event())
+        except (KeyError, ValueError, TypeError):
+            return  # not a question this vehicle can read: no answer
+        self._actions.put(call)
+        assert call.done is not None
+        if call.done.wait(MODEM_WAIT):
+            query.reply(self.keys["modem_payload"], json.dumps(call.answer or {}))
+
+    def _on_heard(self, sample: zenoh.Sample) -> None:
+        """A player says a message was delivered to this vehicle: its stack hears it."""
+        try:
+            d = json.loads(payload_text(sample))
+            call = ModemCall(str(d["channel"]), str(d["message"]), float(d["t"]),
+                             data=dict(d["data"]))
+        except (ValueError, KeyError, TypeError):
+            with self._lock:
+                self.dropped += 1
+            return
+        self._actions.put(call)
+
     # -- the loop -------------------------------------------------------------------------------
     def run(self) -> None:
-        k = self.keys
-        session = zenoh.open(zenoh_config(self.endpoint, listen=True, lease_ms=self.lease_ms,
-                                          security=self.security, role="vehicle",
-                                          scouting=self.scouting))
+        session = self.open()
         try:
-            pub = {
-                "event": session.declare_publisher(
-                    k["event"], congestion_control=zenoh.CongestionControl.BLOCK,
-                    priority=zenoh.Priority.INTERACTIVE_HIGH, express=True),
-                "clock": session.declare_publisher(
-                    k["clock"], congestion_control=zenoh.CongestionControl.DROP, express=True),
-            }
-            for stream in ("navigator", "wall", "behaviours"):
-                pub[stream] = session.declare_publisher(
-                    f"{k['telemetry']}/{stream}",
-                    congestion_control=zenoh.CongestionControl.DROP,
-                    priority=zenoh.Priority.DATA_LOW)
-            entities: list[Any] = [
-                session.declare_subscriber(k["action"], self._on_action),
-                session.declare_subscriber(k["status"], self._on_status),
-                session.liveliness().declare_subscriber(f"{k['alive_player']}/*",
-                                                        self._on_player, history=True),
-                session.declare_queryable(k["capabilities"], self._on_capabilities),
-                session.liveliness().declare_token(k["alive_vehicle"]),  # last: all is ready
-            ]
+            pub, entities = self.declare(session)
             self.ready.set()
             log.info("vehicle %s ready on %s", self.name, self.endpoint)
             self._loop(pub)
@@ -225,6 +260,56 @@ class VehicleServer:
         finally:
             close_session(session)
 
+    def open(self) -> zenoh.Session:
+        """The vehicle's session, listening on its endpoint."""
+        return zenoh.open(zenoh_config(self.endpoint, listen=True, lease_ms=self.lease_ms,
+                                       security=self.security, role="vehicle",
+                                       scouting=self.scouting))
+
+    def declare(self, session: zenoh.Session) -> tuple[dict[str, Any], list[Any]]:
+        """Its publishers, and its subscribers, queryables and token (the token last: all
+        is ready once it is seen)."""
+        k = self.keys
+        pub = {
+            "event": session.declare_publisher(
+                k["event"], congestion_control=zenoh.CongestionControl.BLOCK,
+                priority=zenoh.Priority.INTERACTIVE_HIGH, express=True),
+            "clock": session.declare_publisher(
+                k["clock"], congestion_control=zenoh.CongestionControl.DROP, express=True),
+        }
+        for stream in ("navigator", "wall", "behaviours"):
+            pub[stream] = session.declare_publisher(
+                f"{k['telemetry']}/{stream}",
+                congestion_control=zenoh.CongestionControl.DROP,
+                priority=zenoh.Priority.DATA_LOW)
+        entities: list[Any] = [
+            session.declare_subscriber(k["action"], self._on_action),
+            session.declare_subscriber(k["status"], self._on_status),
+            session.liveliness().declare_subscriber(f"{k['alive_player']}/*",
+                                                    self._on_player, history=True),
+            session.declare_queryable(k["capabilities"], self._on_capabilities),
+        ]
+        if self.modem:
+            entities += [session.declare_queryable(k["modem_payload"], self._on_payload),
+                         session.declare_subscriber(k["modem_heard"], self._on_heard)]
+        entities.append(session.liveliness().declare_token(k["alive_vehicle"]))
+        return pub, entities
+
+    def player_present(self) -> bool:
+        """Whether its player's token is there."""
+        return self._player_present.is_set()
+
+    def mission_begun(self) -> bool:
+        """Whether its player's current run has begun its mission (said its status)."""
+        with self._lock:
+            return self._player_present.is_set() and self._run in self._begun
+
+    def tick(self, pub: dict[str, Any]) -> None:
+        """One tick of its stack; its events published."""
+        for event in self.stack.due(self.stack.t + self.dt):
+            pub["event"].put(event.to_json())
+            self.events += 1
+
     def _loop(self, pub: dict[str, Any]) -> None:
         stack = self.stack
         next_clock = next_telemetry = 0.0
@@ -232,38 +317,40 @@ class VehicleServer:
             # paused at t = 0 until a player comes: say so (the player's clock stands still)
             if self.stop.is_set():
                 return
-            self._apply_actions()
-            self._publish_clock(pub, False)
+            self.apply_actions()
+            self.publish_clock(pub, False)
             if time.monotonic() >= next_telemetry:
-                self._publish_telemetry(pub)
+                self.publish_telemetry(pub)
                 next_telemetry = time.monotonic() + TELEMETRY_PERIOD
             self._player_present.wait(CLOCK_PERIOD)
         wall0, t0 = time.monotonic(), stack.t
         while not self.stop.is_set():
-            self._apply_actions()
-            self._check_player()
+            self.apply_actions()
+            self.check_player()
             now = time.monotonic()
-            if stack.t + DT <= t0 + (now - wall0) * self.speed:  # a tick is due
-                for event in stack.due(stack.t + DT):
-                    pub["event"].put(event.to_json())
-                    self.events += 1
+            if stack.t + self.dt <= t0 + (now - wall0) * self.speed:  # a tick is due
+                self.tick(pub)
             else:
-                due_at = wall0 + (stack.t + DT - t0) / self.speed
+                due_at = wall0 + (stack.t + self.dt - t0) / self.speed
                 time.sleep(min(MAX_SLEEP, max(0.0, due_at - now)))
             now = time.monotonic()
             if now >= next_clock:
-                self._publish_clock(pub, True)
+                self.publish_clock(pub, True)
                 next_clock = now + CLOCK_PERIOD
             if now >= next_telemetry:
-                self._publish_telemetry(pub)
+                self.publish_telemetry(pub)
                 next_telemetry = now + TELEMETRY_PERIOD
 
-    def _apply_actions(self) -> None:
+    def apply_actions(self) -> None:
+        """Apply what has arrived: actions, new runs, the modem's calls."""
         while True:
             try:
                 action = self._actions.get_nowait()
             except queue.Empty:
                 return
+            if isinstance(action, ModemCall):
+                self.modem_call(action)
+                continue
             if isinstance(action, NewRun):
                 self.switch_off("a new player run")
                 self._applied_run = action.run
@@ -271,7 +358,20 @@ class VehicleServer:
             self.actions += 1
             self.stack.on_action(action, self.stack.t)
 
-    def _check_player(self) -> None:
+    def modem_call(self, call: ModemCall) -> None:
+        """A payload asked (answered) or a message heard, by the stack."""
+        if call.data is None:
+            answer = dict(self.stack.payload(call.channel, call.message, call.t))
+            where = getattr(self.stack, "position", lambda: None)()
+            call.answer = {**({"position": list(where)} if where is not None else {}),
+                           **answer}
+            if call.done is not None:
+                call.done.set()
+        else:
+            self.stack.heard(call.channel, call.message, call.data, call.t)
+
+    def check_player(self) -> None:
+        """Take the safe action once the player has been gone too long."""
         with self._lock:
             gone = self._player_gone_at
             due = (gone is not None and not self.failsafe
@@ -292,18 +392,20 @@ class VehicleServer:
         return active
 
     def safe_action(self) -> None:
-        """Disable every active behaviour, then enable Surface."""
+        """Disable every active behaviour, then enable its safe behaviour (Surface)."""
         self.switch_off(f"player lost for {self.player_timeout:g} s")
-        log.warning("surfacing (the player is lost)")
+        if self.safe is None:
+            return
+        log.warning("%s (the player is lost)", self.safe)
         t = self.stack.t
-        self.stack.on_action(ActionMessage(0, t, "vehicle", "failsafe", "enable", "Surface",
+        self.stack.on_action(ActionMessage(0, t, "vehicle", "failsafe", "enable", self.safe,
                                            {}), t)
 
-    def _publish_clock(self, pub: dict[str, Any], running: bool) -> None:
+    def publish_clock(self, pub: dict[str, Any], running: bool) -> None:
         pub["clock"].put(json.dumps({"t": self.stack.t, "speed": self.speed,
                                      "running": running}))
 
-    def _publish_telemetry(self, pub: dict[str, Any]) -> None:
+    def publish_telemetry(self, pub: dict[str, Any]) -> None:
         p = self.stack.perception()
         t = self.stack.t
         pub["navigator"].put(json.dumps({"t": t, "x": p.x, "y": p.y, "z": p.z, "yaw": p.psi,
