@@ -43,6 +43,7 @@ SECONDS: dict[str, float] = {
     "tests/petri/test_mcc.py": 107,  # with ../shared/mcc, the contest's models (else skipped)
     "tests/vehicle_adapters/test_mavlink.py": 96,
     "tests/app/test_safe_exit.py": 59,
+    "tests/app/test_fleet_signals.py": 40,  # real signals to fleets paced at wall time
     "tests/app/lsp/test_server.py": 58,
     "tests/vehicle_adapters/test_zenoh.py": 57,  # 62: see above
     "tests/mcl/test_routes.py": 45,
@@ -55,6 +56,9 @@ SECONDS: dict[str, float] = {
     "tests/vehicle/control/test_stack_determinism.py": 25,
     "tests/petri/execution/test_status.py": 24,
     "tests/app/test_export.py": 20,
+    "tests/app/test_fleet_zenoh.py": 26,  # a fleet in four processes over Zenoh
+    "tests/app/test_fleet_mcm_zenoh.py": 22,  # paper 003's pair over Zenoh
+    "tests/mission/test_mcm_fleet.py": 11,
     "tests/vehicle/control/test_stack.py": 20,
     "tests/test_layers.py": 20,
     "tests/petri/verification/test_reachability.py": 20,
