@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any, NamedTuple, Protocol
 
+from mcl.fleet import Channel
 from petri.execution.runlog import GENESIS, chain, finite
 
 SOUND_SPEED = 1500.0  # m/s in sea water (not air's 343 m/s)
@@ -40,26 +41,6 @@ RECORD_FORMAT = "mcl-channel-record/1"
 FATES = ("delivered", "lost", "dropped")  # what ChannelModel decides for a message
 Position = tuple[float, float, float]  # x, y, z in metres, in the simulated world's frame
 
-
-class ChannelSpec(Protocol):
-    """What the run needs of a compiled channel (``mcl.fleet.Channel`` has it)."""
-
-    @property
-    def name(self) -> str: ...
-    @property
-    def sender(self) -> str: ...
-    @property
-    def receivers(self) -> tuple[str, ...]: ...
-    @property
-    def delay_min(self) -> float: ...
-    @property
-    def delay_max(self) -> float: ...
-    @property
-    def interval(self) -> float: ...
-    @property
-    def lossy(self) -> bool: ...
-    @property
-    def messages(self) -> tuple[str, ...]: ...
 
 
 @dataclass(frozen=True)
@@ -90,7 +71,7 @@ class ChannelModel:
     """The fate of each message on one channel (the module's doc); ``rng`` seeds it, so the
     same seed gives the same fates."""
 
-    def __init__(self, channel: ChannelSpec, loss: float, rng: random.Random,
+    def __init__(self, channel: Channel, loss: float, rng: random.Random,
                  latency: float = LATENCY) -> None:
         if not 0.0 <= loss <= 1.0:
             raise ValueError(f"loss {loss!r} is not a probability (0 to 1)")
@@ -195,7 +176,7 @@ class InProcessCarrier:
     record (None: none is written). Thread-safe: each vehicle's runner calls it from its own
     thread (one at a time, :mod:`mission.fleet`)."""
 
-    def __init__(self, channels: Mapping[str, ChannelSpec], models: Mapping[str, ChannelModel],
+    def __init__(self, channels: Mapping[str, Channel], models: Mapping[str, ChannelModel],
                  where: Callable[[str], Position | None] = lambda name: None,
                  record: ChannelRecord | None = None) -> None:
         self.channels = dict(channels)

@@ -1,7 +1,7 @@
 """A fleet run in one process: every vehicle's player on ONE simulated clock, each with its
 own simulated vehicle, and the fleet's channels between them.
 
-    from mcl.api import compile_fleet_file
+    from mcl.fleet import compile_fleet_file
     from mission import run_fleet, simulated_vehicle
 
     fleet = compile_fleet_file("missions/mcm.mcl")
@@ -39,13 +39,14 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 from aal.messages import ActionMessage, EventMessage
 from diagnostics import MclError
 from mcl.analysis.fleet_verification import verify_fleet
 from mcl.analysis.verification import verify_mission
 from mcl.api import Compiled
+from mcl.fleet import CompiledFleet
 from petri.execution.player import Order
 from petri.execution.signing import Signer
 
@@ -53,7 +54,6 @@ from mission.capabilities import check_capabilities
 from mission.channels import (
     ChannelModel,
     ChannelRecord,
-    ChannelSpec,
     InProcessCarrier,
     Message,
     Position,
@@ -65,16 +65,6 @@ from mission.vehicle import Vehicle
 
 PACE_WAIT = 0.2  # wall s: the longest single wait of a fleet paced at wall time
 
-
-class FleetSpec(Protocol):
-    """What a fleet run needs of a compiled fleet (``mcl.api.CompiledFleet`` has it)."""
-
-    @property
-    def name(self) -> str: ...
-    @property
-    def vehicles(self) -> Mapping[str, Compiled]: ...
-    @property
-    def channels(self) -> Mapping[str, ChannelSpec]: ...
 
 
 @dataclass(frozen=True)
@@ -262,7 +252,7 @@ def where_of(vehicle: Vehicle) -> Callable[[], Position | None]:
     return lambda: (float(robot.state.x), float(robot.state.y), float(robot.state.z))
 
 
-def losses(fleet: FleetSpec, loss: float | Mapping[str, float]) -> dict[str, float]:
+def losses(fleet: CompiledFleet, loss: float | Mapping[str, float]) -> dict[str, float]:
     """Each channel's loss probability: one for every channel, or by channel (others 0)."""
     if isinstance(loss, Mapping):
         unknown = sorted(set(loss) - set(fleet.channels))
@@ -274,7 +264,7 @@ def losses(fleet: FleetSpec, loss: float | Mapping[str, float]) -> dict[str, flo
     return {name: float(loss) for name in fleet.channels}
 
 
-def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float |
+def run_fleet(fleet: CompiledFleet, vehicles: Mapping[str, Vehicle], *, loss: float |
               Mapping[str, float] = 0.0, seed: int = 1, log_dir: str | Path | None = None,
               header: Mapping[str, Any] | None = None,
               headers: Mapping[str, Mapping[str, Any]] | None = None,
@@ -360,7 +350,7 @@ def run_fleet(fleet: FleetSpec, vehicles: Mapping[str, Vehicle], *, loss: float 
                        record.failure if record is not None else "")
 
 
-def open_record(path: Path, fleet: FleetSpec, seed: int, loss: dict[str, float]
+def open_record(path: Path, fleet: CompiledFleet, seed: int, loss: dict[str, float]
                 ) -> ChannelRecord:
     """The channel record, its header written: the fleet, the seed, the losses and the
     channels' declarations; one that cannot be written is :class:`LogUnwritable`."""
@@ -388,7 +378,7 @@ def check_before(compiled: Compiled, vehicle: Vehicle, verify: bool,
                                if not r.holds and r.severity == "error"])
 
 
-def run_vehicle(name: str, fleet: FleetSpec, vehicle: Vehicle, clock: SharedClock,
+def run_vehicle(name: str, fleet: CompiledFleet, vehicle: Vehicle, clock: SharedClock,
                 carrier: InProcessCarrier, stops: FleetStop, folder: Path | None,
                 header: Mapping[str, Any] | None, max_time: float | None,
                 observers: Mapping[str, list[Callable[[Any], None]]] | None,

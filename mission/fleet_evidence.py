@@ -22,12 +22,13 @@ import math
 from collections import Counter
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 from diagnostics import MclError, Span
+from mcl.fleet import CompiledFleet
 from petri.execution.runlog import GENESIS, MAX_LINE, MAX_LOG, chain
 
-from mission.channels import RECORD_FORMAT, ChannelSpec
+from mission.channels import RECORD_FORMAT
 
 KINDS = ("header", "sent", "delivered", "lost", "dropped", "undelivered", "refused", "end")
 TOLERANCE = 1e-5  # s: times are written to the microsecond
@@ -44,10 +45,6 @@ class RecordProblem(MclError):
         where = str(path) if line is None else f"{path}:{line}"
         super().__init__(reason, span=span, code="fleet-record", text=f"{where}: {reason}")
 
-
-class Fleet(Protocol):
-    @property
-    def channels(self) -> Mapping[str, ChannelSpec]: ...
 
 
 def read_record(path: str | Path) -> list[dict[str, Any]]:
@@ -100,7 +97,7 @@ def read_record(path: str | Path) -> list[dict[str, Any]]:
     return lines
 
 
-def problem(fleet: Fleet, record: list[dict[str, Any]], path: str | Path,
+def problem(fleet: CompiledFleet, record: list[dict[str, Any]], path: str | Path,
             logs: Mapping[str, list[dict[str, Any]]]) -> RecordProblem | None:
     """What the channel record and the vehicles' logs (by vehicle) do not agree on, or None
     (this module's doc, points 2 to 4)."""
@@ -121,7 +118,7 @@ def problem(fleet: Fleet, record: list[dict[str, Any]], path: str | Path,
     return None
 
 
-def line_problem(fleet: Fleet, r: dict[str, Any], sent: dict[tuple[str, str, int], Any],
+def line_problem(fleet: CompiledFleet, r: dict[str, Any], sent: dict[tuple[str, str, int], Any],
                  delivered: set[tuple[str, str, int, str]],
                  shown: dict[str, Counter[tuple[str, str, float]]]) -> str | None:
     """What is wrong with one line of the channel record, given those before it."""
@@ -159,7 +156,7 @@ def line_problem(fleet: Fleet, r: dict[str, Any], sent: dict[tuple[str, str, int
     return None
 
 
-def interval_problem(fleet: Fleet, record: list[dict[str, Any]]) -> tuple[int, str] | None:
+def interval_problem(fleet: CompiledFleet, record: list[dict[str, Any]]) -> tuple[int, str] | None:
     """A message dropped that was not closer than EVERY to the last one kept before it on its
     channel (the line and why), or None."""
     drops = {(r["channel"], r["seq"]) for r in record if r["kind"] == "dropped"}
@@ -180,7 +177,7 @@ def interval_problem(fleet: Fleet, record: list[dict[str, Any]]) -> tuple[int, s
     return None
 
 
-def log_problem(fleet: Fleet, name: str, log: list[dict[str, Any]],
+def log_problem(fleet: CompiledFleet, name: str, log: list[dict[str, Any]],
                 sent: dict[tuple[str, str, int], dict[str, Any]],
                 delivered: Counter[tuple[str, str, float]]) -> tuple[int, str] | None:
     """What vehicle ``name``'s run log shows that the channel record does not: a Send with no

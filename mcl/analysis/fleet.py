@@ -27,45 +27,19 @@ compositional route (mcl/analysis/fleet_compositional.py).
 from __future__ import annotations
 
 import itertools
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING
 
 from petri.net import INNER, Action, Net
 from petri.semantics import MISSION_ABORT, Semantics
 
 if TYPE_CHECKING:
-    from mcl.api import Compiled
+    from mcl.fleet import Channel, CompiledFleet
 
 SEND = "send"  # the kind of Action a Send(CHANNEL, MESSAGE) task carries
 
 
-class ChannelSpec(Protocol):
-    """What the proof needs of a channel (mcl's compiled ``Channel``)."""
-
-    @property
-    def name(self) -> str: ...
-    @property
-    def sender(self) -> str: ...
-    @property
-    def receivers(self) -> tuple[str, ...]: ...
-    @property
-    def lossy(self) -> bool: ...
-    @property
-    def messages(self) -> tuple[str, ...]: ...
-    @property
-    def interval(self) -> float: ...
-
-
-class FleetSpec(Protocol):
-    """What the proof needs of a compiled fleet (mcl's ``CompiledFleet``)."""
-
-    @property
-    def name(self) -> str: ...
-    @property
-    def vehicles(self) -> Mapping[str, Compiled]: ...
-    @property
-    def channels(self) -> Mapping[str, ChannelSpec]: ...
 
 
 @dataclass(frozen=True)
@@ -150,18 +124,18 @@ class FleetNet:
         return f"{step.vehicle}{where}: {tr.label or tr.name}{heard}"
 
 
-def product(fleet: FleetSpec) -> FleetNet:
+def product(fleet: CompiledFleet) -> FleetNet:
     """The fleet's product net (the module's doc)."""
     return _build(fleet, list(fleet.vehicles), arrivals=False)
 
 
-def alone(fleet: FleetSpec, vehicle: str) -> FleetNet:
+def alone(fleet: CompiledFleet, vehicle: str) -> FleetNet:
     """``vehicle`` alone against its channels' contract: any message to it may be on its
     way at any moment (``arrive``), its sends go nowhere."""
     return _build(fleet, [vehicle], arrivals=True)
 
 
-def _build(fleet: FleetSpec, vehicles: list[str], arrivals: bool) -> FleetNet:
+def _build(fleet: CompiledFleet, vehicles: list[str], arrivals: bool) -> FleetNet:
     net = Net(fleet.name if not arrivals else f"{fleet.name}/{vehicles[0]}")
     slices: dict[str, Slice] = {}
     for v in vehicles:
@@ -225,7 +199,7 @@ def _arcs(s: Slice, t: int, not_waiting: dict[int, int]) -> tuple[list[int], lis
     return ins, outs
 
 
-def _link(net: Net, ch: ChannelSpec, message: str, receiver: str, s: Slice) -> Link:
+def _link(net: Net, ch: Channel, message: str, receiver: str, s: Slice) -> Link:
     base = f"channel {ch.name}.{message}→{receiver}"
     flight = net.add_place(f"{base} in flight", role=INNER)
     empty = net.add_place(f"{base} empty", role=INNER)

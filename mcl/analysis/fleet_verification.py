@@ -19,15 +19,18 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from petri.verification.reachability import StateSpace, explore, markings_within
 from petri.verification.verdict import Result, undecided
 
 from mcl.analysis.duration import analyse
-from mcl.analysis.fleet import FleetNet, FleetSpec, Step, alone, product
+from mcl.analysis.fleet import FleetNet, Step, alone, product
 from mcl.analysis.fleet_properties import decide
 from mcl.analysis.termination import endless
+
+if TYPE_CHECKING:
+    from mcl.fleet import CompiledFleet
 
 METHODS = ("auto", "explicit", "compositional")
 MAX_MARKINGS = 5_000_000
@@ -101,7 +104,7 @@ class FleetVerdict:
         return base
 
 
-def terminates_of(fleet: FleetSpec) -> dict[str, tuple[bool, str]]:
+def terminates_of(fleet: CompiledFleet) -> dict[str, tuple[bool, str]]:
     """Each vehicle's proved worst case (its receptions as events that may never come)."""
     out = {}
     for v, compiled in fleet.vehicles.items():
@@ -114,7 +117,7 @@ def terminates_of(fleet: FleetSpec) -> dict[str, tuple[bool, str]]:
     return out
 
 
-def verify_fleet(fleet: FleetSpec, method: str = "auto", max_markings: int = MAX_MARKINGS,
+def verify_fleet(fleet: CompiledFleet, method: str = "auto", max_markings: int = MAX_MARKINGS,
                  max_bytes: int = MAX_BYTES, keep_graph: bool = False) -> FleetVerdict:
     """Prove the fleet properties by ``method`` ("auto", "explicit" or "compositional")."""
     if method not in METHODS:
@@ -165,7 +168,7 @@ def explicit(fnet: FleetNet, proofs: dict[str, tuple[bool, str]], limit: int,
     return FleetVerdict(fnet, ss.n_markings, ss.n_arcs, 0.0, results, space=ss)
 
 
-def compositional(fleet: FleetSpec, proofs: dict[str, tuple[bool, str]], max_markings: int,
+def compositional(fleet: CompiledFleet, proofs: dict[str, tuple[bool, str]], max_markings: int,
                   max_bytes: float) -> FleetVerdict:
     """Each vehicle alone against its channels' contract (the module's doc)."""
     per: dict[str, dict[str, Result]] = {}
