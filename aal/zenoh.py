@@ -64,6 +64,17 @@ _HOST = re.compile(r"[A-Za-z0-9]([A-Za-z0-9-]{0,62}[A-Za-z0-9])?(\.[A-Za-z0-9]([
                    r"[A-Za-z0-9])?)*")
 
 
+def fleet_vehicle(text: str) -> tuple[str, str]:
+    """``NAME=ENDPOINT`` (``--fleet-vehicle``): the vehicle's name and its endpoint, both
+    checked; a ValueError saying what is wrong otherwise."""
+    name, equals, endpoint = text.partition("=")
+    if not equals:
+        raise ValueError("write NAME=ENDPOINT, e.g. asv=tcp/127.0.0.1:7447")
+    check_name(name)
+    check_endpoint(endpoint)
+    return name, endpoint
+
+
 def check_endpoint(endpoint: str) -> str:
     """A Zenoh endpoint, ``PROTOCOL/HOST:PORT`` (``unixsock-stream/PATH``), checked before
     Zenoh sees it: ValueError saying what is wrong. Zenoh's own metadata (``?...``) and

@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from aal.messages import ActionMessage, Declaration, EventMessage
-from aal.zenoh import check_endpoint, check_name, keys, payload_text, zenoh_config
+from aal.zenoh import check_endpoint, fleet_vehicle, keys, payload_text, zenoh_config
 from aal.zenoh_security import Security
 from diagnostics import file_error
 from mcl.analysis.fleet_verification import verify_fleet
@@ -74,12 +74,8 @@ def endpoints(fleet: CompiledFleet, me: str, given: list[str]) -> dict[str, str]
     one for every vehicle that sends to ``me``; an MclError naming the option otherwise."""
     found: dict[str, str] = {}
     for text in given:
-        name, equals, endpoint = text.partition("=")
         try:
-            if not equals:
-                raise ValueError("write NAME=ENDPOINT, e.g. asv=tcp/127.0.0.1:7447")
-            check_name(name)
-            check_endpoint(endpoint)
+            name, endpoint = fleet_vehicle(text)
         except ValueError as exc:
             raise file_error(fleet.source.name, f"--fleet-vehicle {text[:80]}: {exc}",
                              code="fleet-vehicle") from None

@@ -45,16 +45,12 @@ class VehicleView(Protocol):
 def fleet_vehicles(given: list[str]) -> dict[str, str] | str:
     """``--fleet-vehicle NAME=ENDPOINT`` options, checked: name -> endpoint, or one line
     naming the bad option."""
-    from aal.zenoh import check_endpoint, check_name  # start-up speed: it imports zenoh
+    from aal.zenoh import fleet_vehicle  # start-up speed: it imports zenoh
 
     found: dict[str, str] = {}
     for text in given:
-        name, equals, endpoint = text.partition("=")
         try:
-            if not equals:
-                raise ValueError("write NAME=ENDPOINT, e.g. asv=tcp/127.0.0.1:7447")
-            check_name(name)
-            check_endpoint(endpoint)
+            name, endpoint = fleet_vehicle(text)
         except ValueError as exc:
             return f"--fleet-vehicle {text[:80]}: error: {exc}"
         if name in found:
