@@ -59,6 +59,7 @@ SECONDS: dict[str, float] = {
     "tests/app/test_fleet_zenoh.py": 26,  # a fleet in four processes over Zenoh
     "tests/app/test_fleet_mcm_zenoh.py": 22,  # paper 003's pair over Zenoh
     "tests/mission/test_mcm_fleet.py": 11,
+    "tests/app/view/test_live_fleet.py": 12,  # a fleet over Zenoh in the browser: 10 s idle
     "tests/vehicle/control/test_stack.py": 20,
     "tests/test_layers.py": 20,
     "tests/petri/verification/test_reachability.py": 20,

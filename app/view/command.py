@@ -3,10 +3,12 @@
     mcl view RUN.jsonl MISSION.mcl [--tasks FILE] [--port N]
     mcl view --zenoh ENDPOINT MISSION.mcl [--name auv] [--port N]
     mcl view RUNDIR FLEET.mcl [--port N]
+    mcl view FLEET.mcl --fleet-vehicle NAME=ENDPOINT ... [--port N]
 
 A fleet's run (the folder ``mcl run FLEET.mcl --log-dir RUNDIR`` wrote) shows every
 vehicle's tree under the fleet's, with every vehicle's timeline and the channels' messages
-(app/view/fleet.py).
+(app/view/fleet.py); with ``--fleet-vehicle`` for each of its vehicles, the same page follows
+a fleet's live run over Zenoh (app/view/live_fleet.py).
 
 From a log, it checks the log as ``mcl replay`` does (its lines and digest chain, then every
 record against the mission's net: the page shows only a legal run). Live, it follows the
@@ -28,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from mcl.api import Compiled, compile_file
-from mcl.fleet import is_fleet
+from mcl.fleet import compile_fleet_file, is_fleet
 from mission.exits import Exit
 
 from app import arguments
@@ -41,7 +43,8 @@ def _parser() -> argparse.ArgumentParser:
     p = arguments.Parser(prog="mcl view", usage="mcl view RUN.jsonl MISSION.mcl "
                                 "[options]\n       mcl view RUNDIR FLEET.mcl [options]"
                                 "\n       mcl view --zenoh ENDPOINT MISSION.mcl "
-                                "[options]", description="Show a run of a mission in a "
+                                "[options]\n       mcl view FLEET.mcl --fleet-vehicle "
+                                "NAME=ENDPOINT ... [options]", description="Show a run of a mission in a "
                                 "browser: its tree with each block's state, the timeline, the "
                                 "track, the proved bounds, the mosaic.")
     p.add_argument("files", nargs="+", metavar="FILE",
@@ -49,6 +52,9 @@ def _parser() -> argparse.ArgumentParser:
                         "fleet; with --zenoh, the mission alone")
     p.add_argument("--zenoh", metavar="ENDPOINT", help="follow a live run on the vehicle at "
                    "this endpoint (e.g. tcp/127.0.0.1:7447) instead of a log")
+    p.add_argument("--fleet-vehicle", action="append", default=[], metavar="NAME=ENDPOINT",
+                   help="follow a fleet's live run: where vehicle NAME of the fleet is "
+                        "reached (one for each vehicle)")
     p.add_argument("--name", default="auv", help="--zenoh: the vehicle's name in the keys "
                    "(default auv); one view per vehicle of a fleet")
     p.add_argument("--tasks", action="append", default=[], metavar="FILE",
@@ -64,9 +70,10 @@ def main(argv: list[str] | None = None) -> int:
     """``mcl view ARGS`` (``argv``: what follows ``view``)."""
     p = _parser()
     args = p.parse_args(sys.argv[1:] if argv is None else argv)
-    wanted = 1 if args.zenoh else 2
-    if len(args.files) != wanted:
-        p.error("give RUN.jsonl MISSION.mcl, or --zenoh ENDPOINT MISSION.mcl")
+    wanted = 1 if args.zenoh or args.fleet_vehicle else 2
+    if len(args.files) != wanted or (args.zenoh and args.fleet_vehicle):
+        p.error("give RUN.jsonl MISSION.mcl, or --zenoh ENDPOINT MISSION.mcl, or FLEET.mcl "
+                "--fleet-vehicle NAME=ENDPOINT ...")
     if not 0 <= args.port <= 65535:
         print(f"--port {args.port}: error: not a port (0 to 65535)", file=sys.stderr)
         return Exit.INVALID
@@ -127,6 +134,13 @@ def _view(args: argparse.Namespace) -> int:
                                               threading.Event()),
                          name="mcl-view-zenoh", daemon=True).start()
         what = f"live from {args.zenoh}"
+    elif args.fleet_vehicle:
+        live_fleet = _live_fleet(args, stop)
+        if isinstance(live_fleet, str):
+            print(live_fleet, file=sys.stderr)
+            return Exit.INVALID
+        provider = live_fleet.data
+        what = f"live from {len(live_fleet.runs)} vehicles"
     elif Path(args.files[0]).is_dir() or is_fleet(args.files[1]):
         from app.view.fleet import fleet_data, load_fleet  # as above: for start-up speed
 
@@ -168,3 +182,40 @@ def _zenoh_problem(args: argparse.Namespace) -> str | None:
     from aal.zenoh import option_error
 
     return option_error(args.zenoh, args.name)
+
+
+def _live_fleet(args: argparse.Namespace, stop: threading.Event) -> Any:
+    """The fleet's live run, followed on threads of their own until ``stop``; or the one line
+    saying what is wrong with the options."""
+    from app import zenoh_options
+    from app.monitor_fleet import fleet_vehicles
+    from app.view.live import follow
+    from app.view.live_fleet import LiveFleet, follow_channels
+
+    endpoints = fleet_vehicles(args.fleet_vehicle)
+    if isinstance(endpoints, str):
+        return endpoints
+    fleet = compile_fleet_file(args.files[0], require_values=True)
+    unknown = [name for name in endpoints if name not in fleet.vehicles]
+    missing = [name for name in fleet.vehicles if name not in endpoints]
+    if unknown or missing:
+        what = (f"fleet {fleet.name} has no vehicle '{unknown[0]}'" if unknown else
+                f"say where vehicle {missing[0]} is (--fleet-vehicle {missing[0]}=ENDPOINT)")
+        return (f"{args.files[0]}:1:1: error: --fleet-vehicle: {what}; its vehicles: "
+                f"{', '.join(fleet.vehicles)}")
+    securities = {}
+    for endpoint in dict.fromkeys(endpoints.values()):
+        try:
+            securities[endpoint] = zenoh_options.from_args(
+                argparse.Namespace(**{**vars(args), "zenoh": endpoint}), "observer")
+        except ValueError as exc:
+            return f"mcl view: error: {exc}"
+    live = LiveFleet(fleet, endpoints)
+    for name, run in live.runs.items():
+        threading.Thread(target=follow, args=(run, run.endpoint, securities[run.endpoint],
+                                              stop, threading.Event()),
+                         name=f"mcl-view-{name}", daemon=True).start()
+    threading.Thread(target=follow_channels, args=(live, list(securities), securities, stop,
+                                                   threading.Event()),
+                     name="mcl-view-channels", daemon=True).start()
+    return live

@@ -101,9 +101,16 @@ def channel_timeline(record: list[dict[str, Any]]) -> list[dict[str, Any]]:
 def fleet_data(fleet: CompiledFleet, logs: dict[str, list[dict[str, Any]]],
                record: list[dict[str, Any]], folder: Path) -> dict[str, Any]:
     """Everything the page shows of the fleet's run (this module's doc)."""
-    runs: dict[str, dict[str, Any]] = {}
-    for name, compiled in fleet.vehicles.items():
-        runs[name] = page_data(compiled, logs[name], folder / f"{name}.jsonl")
+    runs = {name: page_data(compiled, logs[name], folder / f"{name}.jsonl")
+            for name, compiled in fleet.vehicles.items()}
+    return vehicles_page(fleet, runs, channel_timeline(record))
+
+
+def vehicles_page(fleet: CompiledFleet, runs: dict[str, dict[str, Any]],
+                  channels: list[dict[str, Any]]) -> dict[str, Any]:
+    """The fleet's page made of its vehicles' pages (app/view/data.py's, by vehicle name) and
+    the channels' timeline entries: a finished run's, or a live one's (app/view/live_fleet.py),
+    whose vehicles still running have no end status (then neither has the fleet)."""
     children: list[dict[str, Any]] = []
     changes: list[list[Any]] = []
     timeline: list[dict[str, Any]] = []
@@ -118,12 +125,13 @@ def fleet_data(fleet: CompiledFleet, logs: dict[str, list[dict[str, Any]]],
         blocks[f"{name}/MISSION"] = [data["bounds"]["best"], data["bounds"]["worst"]]
     end_t = max(data["end"]["t"] for data in runs.values())
     ends = {name: data["end"]["status"] for name, data in runs.items()}
-    status = ("ok" if all(s == "ok" for s in ends.values())
+    status = (None if None in ends.values() else "ok" if all(s == "ok" for s in ends.values())
               else ", ".join(f"{name} {s}" for name, s in ends.items()))
-    changes = [[0.0, "MISSION", "running"], *sorted(changes, key=lambda c: c[0]),
-               [end_t, "MISSION", "ok" if status == "ok" else "fail"]]
-    timeline += channel_timeline(record)
-    timeline.sort(key=lambda e: e["t"])  # (stable: each vehicle's own order stays)
+    changes = [[0.0, "MISSION", "running"], *sorted(changes, key=lambda c: c[0])]
+    if status is not None:
+        changes.append([end_t, "MISSION", "ok" if status == "ok" else "fail"])
+    timeline += channels
+    timeline.sort(key=lambda e: float(e["t"] or 0))  # (stable: each vehicle's order stays)
     bests = [d["bounds"]["best"] for d in runs.values()]
     return {"mission": f"fleet {fleet.name}", "file": fleet.source.name,
             "source": fleet.source.text.splitlines(),

@@ -157,17 +157,11 @@ def follow(live: LiveRun, endpoint: str, security: Any, stop: threading.Event,
     reopened while the vehicle is not there yet); ``ready`` once subscribed."""
     import zenoh  # lazy: for start-up speed (a log's view needs no Zenoh)
 
-    from aal.zenoh import close_session, keys, payload_text, zenoh_config
+    from aal.zenoh import close_session, keys, payload_text
 
     k = keys(live.vehicle)
-    while not stop.is_set():
-        try:
-            session = zenoh.open(zenoh_config(endpoint, "client", connect=True,
-                                              security=security, role="observer"))
-            break
-        except zenoh.ZError:
-            stop.wait(0.5)
-    else:
+    session = observer_session(endpoint, security, stop)
+    if session is None:
         return
     try:
         session.declare_subscriber(k["status"], lambda s: live.on_status(payload_text(s)))
@@ -185,3 +179,19 @@ def follow(live: LiveRun, endpoint: str, security: Any, stop: threading.Event,
             pass
     finally:
         close_session(session)
+
+
+def observer_session(endpoint: str, security: Any, stop: threading.Event) -> Any:
+    """An observer's client session to the vehicle at ``endpoint``, reopened while the vehicle
+    is not there yet; None if ``stop`` came first."""
+    import zenoh  # lazy: for start-up speed (a log's view needs no Zenoh)
+
+    from aal.zenoh import zenoh_config
+
+    while not stop.is_set():
+        try:
+            return zenoh.open(zenoh_config(endpoint, "client", connect=True,
+                                           security=security, role="observer"))
+        except zenoh.ZError:
+            stop.wait(0.5)
+    return None
