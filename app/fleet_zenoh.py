@@ -128,6 +128,7 @@ class Member:
         self.lock = threading.Lock()
         self.where: Position | None = None  # the navigator's last position
         self.navigator: Any = None
+        self.began: float | None = None  # its clock at the first receive: the mission runs
 
     def __enter__(self) -> Member:
         self.inner.__enter__()
@@ -168,7 +169,9 @@ class Member:
         due = self.carrier.next_due()
         events = [self.renumbered(e) for e in self.inner.receive(
             until if due is None else min(until, due))]
-        for at, msg in self.carrier.deliveries(self.name, self.inner.now()):
+        if self.began is None:  # the runner asks only once the mission has started
+            self.began = self.inner.now()
+        for at, msg in self.carrier.deliveries(self.name, self.inner.now(), self.began):
             data = {**msg.data, "sent": msg.sent}
             if self.inner.session is not None:  # its vehicle's modem hears it (the UUV's fix)
                 modem.heard(self.inner.session, self.name, msg.channel, msg.message, data, at)

@@ -242,6 +242,9 @@ def watch(view: Watched, until_end: bool, timeout: float | None, plain: bool,
     deadline = time.monotonic() + timeout if timeout else None
     last_line = ""
     while not stop.is_set():
+        # the end is judged before the frame is drawn, so that the last frame shows it (a
+        # status that comes between would otherwise end the watch on a frame without it)
+        ended, alive = view.ended(), view.vehicle_alive
         if plain:
             line = view.line()
             if line != last_line:
@@ -251,11 +254,10 @@ def watch(view: Watched, until_end: bool, timeout: float | None, plain: bool,
             width = shutil.get_terminal_size().columns  # the terminal's, as it is now
             out.write("\x1b[H\x1b[J" + "\n".join(view.screen(width)) + "\n")
             out.flush()
-        ended = view.ended()
         if until_end and ended:
             print(f"mission ended {ended.upper()}", file=out, flush=True)
             return Exit.OK if ended == "ok" else Exit.FAILED
-        if until_end and view.vehicle_alive is False:  # the player's word comes through it
+        if until_end and alive is False:  # the player's word comes through it
             print("vehicle lost: the mission's end cannot be known from here", file=out,
                   flush=True)
             return Exit.FAILED

@@ -35,7 +35,8 @@ sys.path.insert(0, str(HERE.parent))
 
 import numpy as np
 
-from tests.vehicle.perception.uuv_approach import Approach, Run, errors, guess, simulate
+from tests.vehicle.perception.uuv_approach import (Approach, Run, errors, guess, navigate,
+                                                    simulate)
 from vehicle.perception.uuv_model import PSI, U, UuvModel, X, Y
 from vehicle.perception.uuv_navigator import METHODS, UuvNavigator
 
@@ -112,16 +113,8 @@ def errors_at(loss: float, seeds: int, truth: UuvModel
             for m in tick.fixes:
                 travelled.append(float(tick.truth[U]) * (m.t_now - m.t_ping))
         for method in METHODS:
-            nav = UuvNavigator(method, x0=guess(a))
-            xs = []
-            for tick in run.ticks:
-                nav.predict(tick.t, tick.tau, tick.compass, tick.depth)
-                if tick.visual is not None:
-                    nav.visual(tick.t, tick.visual)
-                for m in tick.fixes:
-                    nav.fix(m.t_ping, m.slant_range, m.bearing, m.asv_xy, m.t_now)
-                xs.append(nav.estimate()[0])
-            e = errors(run, np.array(xs))
+            xs, _ = navigate(run, UuvNavigator(method, x0=guess(a)))
+            e = errors(run, xs)
             horizontal = np.hypot(e[:, X], e[:, Y])
             pooled[method].extend(float(h) for h in horizontal[leg])
             psi = np.array([run.ticks[i].truth[PSI] for i in leg])

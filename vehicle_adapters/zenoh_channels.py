@@ -257,16 +257,19 @@ class ZenohCarrier(Generic[M]):
             self.counts["sent"] += 1
         self.record({"t": msg.sent, "kind": "sent", **fields_of(msg)})
 
-    def deliveries(self, receiver: str, until: float) -> list[tuple[float, M]]:
+    def deliveries(self, receiver: str, until: float, since: float = -math.inf
+                   ) -> list[tuple[float, M]]:
         """The messages due at ``receiver`` (this vehicle) by ``until`` on its clock, each with
-        its delivery time, in order; each is given once, and recorded as delivered."""
+        its delivery time, in order; each is given once, and recorded as delivered. One due
+        before ``since`` (the receiver's mission had not begun: its modem held it) is
+        delivered at ``since``."""
         if receiver != self.me:
             raise ValueError(f"this carrier delivers to {self.me}, not {receiver}")
         due: list[tuple[float, M, float]] = []
         with self.lock:
             while self._due and self._due[0][0] <= until + 1e-9:
                 t, _, msg, delay = heapq.heappop(self._due)
-                due.append((t, msg, delay))
+                due.append((max(t, since), msg, delay))
             self.counts["delivered"] += len(due)
         for t, msg, delay in due:
             self.record({"t": t, "kind": "delivered", **fields_of(msg), "receiver": self.me,

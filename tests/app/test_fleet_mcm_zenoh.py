@@ -19,6 +19,8 @@ import pytest
 
 pytest.importorskip("zenoh")
 
+from tests.app.test_fleet_zenoh import player as fleet_player  # noqa: E402
+from tests.app.test_fleet_zenoh import players  # noqa: E402
 from tests.support import REPO, budget, free_endpoint, started, subprocess_env  # noqa: E402
 
 pytestmark = pytest.mark.slow  # three processes over Zenoh
@@ -45,23 +47,8 @@ def secured(folder: Path) -> tuple[list[str], list[str]]:
 
 
 def player(name: str, endpoint: str, logs: Path, *extra: str) -> subprocess.Popen[str]:
-    env = {k: v for k, v in subprocess_env().items() if k != "MCL_ZENOH_PASSWORD"}
-    return subprocess.Popen(
-        [sys.executable, "-m", "app.mcl", "run", str(MISSION), "--as", name, "--vehicle",
-         f"zenoh:{endpoint}", "--seed", str(SEED), "--log-dir", str(logs), "--quiet", *extra],
-        cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True)
-
-
-@contextmanager
-def players(*procs: subprocess.Popen[str]) -> Iterator[None]:
-    try:
-        yield
-    finally:
-        for proc in procs:
-            if proc.poll() is None:
-                proc.kill()
-            proc.communicate(timeout=budget(1))
+    """``mcl run missions/mcm.mcl --as NAME`` on the vehicle at ``endpoint``, quiet."""
+    return fleet_player(MISSION, name, endpoint, logs, "--quiet", *extra)
 
 
 def records(path: Path) -> list[dict[str, Any]]:

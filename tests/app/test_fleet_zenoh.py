@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 import threading
 from collections.abc import Iterator
 from contextlib import ExitStack, contextmanager
@@ -107,6 +108,16 @@ def players(*procs: subprocess.Popen[str]) -> Iterator[None]:
             proc.communicate(timeout=budget(1))
 
 
+def listening(proc: subprocess.Popen[str], log: Path) -> None:
+    """Wait until a receiver's player has begun its mission (its run log is written once its
+    channels listen), as docs/FLEET_ZENOH.md asks of a receiver before its sender starts: a
+    sender waits for a subscriber on its channels, and a monitor's or a view's is one too."""
+    end = time.monotonic() + budget(10)
+    while not log.exists() and proc.poll() is None and time.monotonic() < end:
+        time.sleep(0.05)
+    assert log.exists(), f"{log.stem}'s player never began its mission"
+
+
 def finished(proc: subprocess.Popen[str], seconds: float) -> tuple[int, str, str]:
     out, err = proc.communicate(timeout=seconds)
     return proc.returncode, out, err
@@ -140,6 +151,7 @@ def test_the_fleet_over_zenoh_ends_as_in_one_process(fleet_file: Path, tmp_path:
                    "--plain", "--timeout", str(budget(10)), *operator], ready="") as monitor):
         follower = player(fleet_file, "follower", follow, logs, "--fleet-vehicle",
                           f"leader={lead}", *follow_player)
+        listening(follower, logs / "follower.jsonl")
         leader = player(fleet_file, "leader", lead, logs, *lead_player)
         with players(follower, leader):
             code_f, out_f, err_f = finished(follower, budget(10))
@@ -174,6 +186,7 @@ def test_a_vehicle_killed_mid_run_leaves_the_other_to_end_safely(fleet_file: Pat
         stack.enter_context(vehicle(follow, "follower"))
         follower = player(fleet_file, "follower", follow, logs, "--fleet-vehicle",
                           f"leader={lead}")
+        listening(follower, logs / "follower.jsonl")
         leader = player(fleet_file, "leader", lead, logs)
         stack.enter_context(players(follower, leader))
         heard = threading.Event()

@@ -154,6 +154,24 @@ def test_messages_cross_with_the_receivers_model_applied_on_its_own_clock(vehicl
                                   "refused": 0}
 
 
+def test_a_message_due_before_the_receivers_mission_began_is_delivered_when_it_began(
+        vehicle: str) -> None:
+    """The fleet over Zenoh failed replay at random: a 'go' due at 1.97 s of the follower's
+    clock, its mission begun at 2.18 s, was heard as raised before the mission started."""
+    model, clock = Model(), Clock()
+    records: list[dict[str, Any]] = []
+    sender, receiver = pair(vehicle, model, clock, records, where=(3000.0, 0.0, 0.0))
+    with receiver, sender:
+        assert sender.wait_matched(budget(0.5)), "the receiver never subscribed"
+        sender.send(Message("guide", "fix", "asv", 1, 10.0, {"position": [0.0, 0.0, 0.0]}))
+        wait_for(lambda: receiver.summary()["received"] == 1)
+        # due at 102 s of the receiver's clock; its mission began at 105 s
+        due = receiver.deliveries("uuv", 106.0, since=105.0)
+        assert [(t, m.seq) for t, m in due] == [(105.0, 1)]
+    delivered = [r for r in records if r["kind"] == "delivered"]
+    assert [(r["t"], r["delay"]) for r in delivered] == [(105.0, 2.0)]  # the model's delay
+
+
 def test_a_message_not_from_the_channels_sender_is_refused(vehicle: str) -> None:
     clock, records = Clock(), list[dict[str, Any]]()
     _, receiver = pair(vehicle, Model(), clock, records)

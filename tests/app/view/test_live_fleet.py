@@ -24,7 +24,8 @@ from app.view.live_fleet import LiveFleet
 from mcl.fleet import CompiledFleet, compile_fleet_file
 from mission.fleet import run_fleet
 from mission.simulated import simulated_vehicle
-from tests.app.test_fleet_zenoh import FLEET, SEED, finished, player, players, vehicle
+from tests.app.test_fleet_zenoh import (FLEET, SEED, finished, listening, player, players,
+                                        vehicle)
 from tests.app.view.test_browser import Blocks, chromium
 from tests.app.view.test_fleet import CHROMIUM, states_at
 from tests.support import MISSIONS, REPO, budget, first_line, free_endpoint, stop, subprocess_env
@@ -141,6 +142,7 @@ def test_a_fleet_over_zenoh_live_in_the_browser(tmp_path: Path) -> None:
             url = re.search(r"http://\S+/", line).group(0)  # type: ignore[union-attr]
             follower = player(fleet_file, "follower", follow, logs, "--fleet-vehicle",
                               f"leader={lead}")
+            listening(follower, logs / "follower.jsonl")
             leader = player(fleet_file, "leader", lead, logs)
             with players(follower, leader):
                 code_f, _, err_f = finished(follower, budget(10))
