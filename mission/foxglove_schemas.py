@@ -1,11 +1,14 @@
 """The JSON schemas of the messages a run's MCAP file holds (docs/MCAP.md).
 
 Foxglove shows a JSON message with its own panels when the message's schema is named as one of
-its well-known types: ``foxglove.Log``, ``foxglove.PoseInFrame``, ``foxglove.SceneUpdate``,
-``foxglove.CompressedImage``. The fields and their types below are those of Foxglove's
-definitions (the foxglove-sdk repository, ``schemas/jsonschema/``, as of its 2025 schemas):
-written out here as JSON Schema for the fields a run fills, so that a test can validate every
-message against the schema it is recorded under. Fields Foxglove adds and a run never fills
+its well-known types: ``foxglove.Log``, ``foxglove.PoseInFrame``, ``foxglove.FrameTransform``,
+``foxglove.SceneUpdate``, ``foxglove.CompressedImage``. The fields and their types below are
+those of Foxglove's definitions (the foxglove-sdk repository, ``schemas/jsonschema/``, as of
+its 2025 schemas): written out here as JSON Schema, so that a test can validate every message
+against the schema it is recorded under. Every property is typed (an enumeration is a
+``oneOf`` of ``const`` values, an array has typed ``items``), as Foxglove's own schemas are:
+Lichtblick and Foxglove derive a message's fields from its schema and refuse a channel whose
+schema has a property without a type. Fields Foxglove adds and a run never fills
 (``message_id``, ``lineage``) are left out; a JSON Schema allows them anyway. The schemas
 named ``mcl.*`` are ours: the mission's status (each task call's state, for Foxglove's State
 Transitions panel), the navigator's estimate and the sonar wall tracker's against the truth
@@ -32,6 +35,15 @@ def _numbers(title: str, names: str) -> Schema:
     return _object(title, {n: {"type": "number"} for n in names})
 
 
+def _enumeration(title: str, names: str) -> Schema:
+    """A Foxglove enumeration as its own schemas write it: one ``const`` per value, each titled
+    with its name (a bare ``enum`` has no type, and Lichtblick and Foxglove refuse the whole
+    channel: "Unsupported type undefined for level")."""
+    return {"title": title, "description": ", ".join(
+        f"{name} {n}" for n, name in enumerate(names.split())),
+        "oneOf": [{"title": name, "const": n} for n, name in enumerate(names.split())]}
+
+
 TIME = {"type": "object", "title": "time", "required": ["sec", "nsec"], "properties": {
     "sec": {"type": "integer", "minimum": 0},
     "nsec": {"type": "integer", "minimum": 0, "maximum": 999_999_999}}}
@@ -46,8 +58,7 @@ POSE = _object("foxglove.Pose", {"position": VECTOR3, "orientation": QUATERNION}
 
 LOG = _object("foxglove.Log", {
     "timestamp": TIME,
-    "level": {"title": "foxglove.LogLevel", "enum": [0, 1, 2, 3, 4, 5],
-              "description": "UNKNOWN 0, DEBUG 1, INFO 2, WARNING 3, ERROR 4, FATAL 5"},
+    "level": _enumeration("foxglove.LogLevel", "UNKNOWN DEBUG INFO WARNING ERROR FATAL"),
     "message": {"type": "string"},
     "name": {"type": "string", "description": "process or node name"},
     "file": {"type": "string"},
@@ -56,14 +67,17 @@ LOG = _object("foxglove.Log", {
 POSE_IN_FRAME = _object("foxglove.PoseInFrame", {
     "timestamp": TIME, "frame_id": {"type": "string"}, "pose": POSE})
 
+FRAME_TRANSFORM = _object("foxglove.FrameTransform", {
+    "timestamp": TIME, "parent_frame_id": {"type": "string"},
+    "child_frame_id": {"type": "string"}, "translation": VECTOR3, "rotation": QUATERNION})
+
 COMPRESSED_IMAGE = _object("foxglove.CompressedImage", {
     "timestamp": TIME, "frame_id": {"type": "string"},
     "data": {"type": "string", "contentEncoding": "base64"},
     "format": {"type": "string", "enum": ["jpeg", "png", "webp", "avif"]}})
 
 LINE_PRIMITIVE = _object("foxglove.LinePrimitive", {
-    "type": {"title": "foxglove.LineType", "enum": [0, 1, 2],
-             "description": "LINE_STRIP 0, LINE_LOOP 1, LINE_LIST 2"},
+    "type": _enumeration("foxglove.LineType", "LINE_STRIP LINE_LOOP LINE_LIST"),
     "pose": POSE, "thickness": {"type": "number", "minimum": 0},
     "scale_invariant": {"type": "boolean"},
     "points": {"type": "array", "items": POINT3}, "color": COLOR,
@@ -74,20 +88,45 @@ SPHERE_PRIMITIVE = _object("foxglove.SpherePrimitive", {
     "pose": POSE, "size": VECTOR3, "color": COLOR})
 CUBE_PRIMITIVE = _object("foxglove.CubePrimitive", {
     "pose": POSE, "size": VECTOR3, "color": COLOR})
+# the primitives a run never draws: typed all the same, since a reader (Lichtblick, Foxglove)
+# derives the message's fields from every property of the schema and refuses an untyped one
+ARROW_PRIMITIVE = _object("foxglove.ArrowPrimitive", {
+    "pose": POSE, **{n: {"type": "number"} for n in (
+        "shaft_length", "shaft_diameter", "head_length", "head_diameter")}, "color": COLOR})
+CYLINDER_PRIMITIVE = _object("foxglove.CylinderPrimitive", {
+    "pose": POSE, "size": VECTOR3, "bottom_scale": {"type": "number"},
+    "top_scale": {"type": "number"}, "color": COLOR})
+TRIANGLE_LIST_PRIMITIVE = _object("foxglove.TriangleListPrimitive", {
+    "pose": POSE, "points": {"type": "array", "items": POINT3}, "color": COLOR,
+    "colors": {"type": "array", "items": COLOR},
+    "indices": {"type": "array", "items": {"type": "integer", "minimum": 0}}})
+TEXT_PRIMITIVE = _object("foxglove.TextPrimitive", {
+    "pose": POSE, "billboard": {"type": "boolean"}, "font_size": {"type": "number"},
+    "scale_invariant": {"type": "boolean"}, "color": COLOR, "text": {"type": "string"}})
+MODEL_PRIMITIVE = _object("foxglove.ModelPrimitive", {
+    "pose": POSE, "scale": VECTOR3, "color": COLOR, "override_color": {"type": "boolean"},
+    "url": {"type": "string"}, "media_type": {"type": "string"},
+    "data": {"type": "string", "contentEncoding": "base64"}})
 
 SCENE_ENTITY = _object("foxglove.SceneEntity", {
     "timestamp": TIME, "frame_id": {"type": "string"}, "id": {"type": "string"},
     "lifetime": DURATION, "frame_locked": {"type": "boolean"},
     "metadata": {"type": "array", "items": _object("foxglove.KeyValuePair", {
         "key": {"type": "string"}, "value": {"type": "string"}})},
-    "arrows": {"type": "array"}, "cubes": {"type": "array", "items": CUBE_PRIMITIVE},
+    "arrows": {"type": "array", "items": ARROW_PRIMITIVE},
+    "cubes": {"type": "array", "items": CUBE_PRIMITIVE},
     "spheres": {"type": "array", "items": SPHERE_PRIMITIVE},
-    "cylinders": {"type": "array"}, "lines": {"type": "array", "items": LINE_PRIMITIVE},
-    "triangles": {"type": "array"}, "texts": {"type": "array"}, "models": {"type": "array"}})
+    "cylinders": {"type": "array", "items": CYLINDER_PRIMITIVE},
+    "lines": {"type": "array", "items": LINE_PRIMITIVE},
+    "triangles": {"type": "array", "items": TRIANGLE_LIST_PRIMITIVE},
+    "texts": {"type": "array", "items": TEXT_PRIMITIVE},
+    "models": {"type": "array", "items": MODEL_PRIMITIVE}})
 
 SCENE_UPDATE = _object("foxglove.SceneUpdate", {
     "deletions": {"type": "array", "items": _object("foxglove.SceneEntityDeletion", {
-        "timestamp": TIME, "type": {"enum": [0, 1]}, "id": {"type": "string"}})},
+        "timestamp": TIME, "type": _enumeration("foxglove.SceneEntityDeletionType",
+                                                "MATCHING_ID ALL"),
+        "id": {"type": "string"}})},
     "entities": {"type": "array", "items": SCENE_ENTITY}})
 
 TASK_STATES = ("waiting", "running", "ok", "fail", "aborted", "ended")  # ended: mcl monitor
@@ -135,8 +174,8 @@ CHANNEL_EVENT = _object("mcl.ChannelEvent", {
               "sent"])
 
 SCHEMAS: dict[str, Schema] = {s["title"]: s for s in (
-    LOG, POSE_IN_FRAME, SCENE_UPDATE, COMPRESSED_IMAGE, MISSION_STATUS, NAVIGATION,
-    WALL_TRACKER, CHANNEL_EVENT)}
+    LOG, POSE_IN_FRAME, FRAME_TRANSFORM, SCENE_UPDATE, COMPRESSED_IMAGE, MISSION_STATUS,
+    NAVIGATION, WALL_TRACKER, CHANNEL_EVENT)}
 
 
 def schema_text(name: str) -> bytes:

@@ -23,7 +23,10 @@ from mission.foxglove_schemas import SCHEMAS, schema_text
 from mission.mcap_messages import LogMessages, Message, nanoseconds, stamp
 
 FRAME = "world"  # the simulation's frame: x out from the wall, y along it, z depth (down), m
+SURFACE = "surface"  # the frame to look in, z up: world turned half a turn about its x axis
+TURN_OVER = {"x": 1.0, "y": 0.0, "z": 0.0, "w": 0.0}  # that half turn, as a quaternion
 SEGMENT = 50  # poses per track entity (each entity stays until the end)
+STRIDE = 5  # in a file, the track so far keeps one pose in 5 (1 s) before the last segment
 TRUE_COLOR = {"r": 0.1, "g": 0.4, "b": 1.0, "a": 1.0}
 ESTIMATE_COLOR = {"r": 1.0, "g": 0.5, "b": 0.0, "a": 1.0}
 
@@ -171,19 +174,36 @@ def pose_messages(track: Track) -> Iterable[Message]:
                if w.heading_true is not None else {})})
 
 
-def track_messages(track: Track, first: int = 0) -> Iterable[Message]:
+def frame_messages(track: Track) -> Iterable[Message]:
+    """The frame :data:`FRAME` under :data:`SURFACE`, at the track's first pose: a 3D view
+    in ``surface`` (z up, as viewers draw) shows depth going down, where one in ``world``
+    shows the vehicle upside down. One message, which a viewer seeking anywhere later reads
+    as the latest on its topic."""
+    if track.truth:
+        t = track.truth[0].t
+        yield Message(t, "/tf", "foxglove.FrameTransform", {
+            "timestamp": stamp(t), "parent_frame_id": SURFACE, "child_frame_id": FRAME,
+            "translation": {"x": 0.0, "y": 0.0, "z": 0.0}, "rotation": TURN_OVER})
+
+
+def track_messages(track: Track, first: int = 0, whole: bool = False) -> Iterable[Message]:
     """The track in segments of :data:`SEGMENT` poses that stay on screen, each with the USBL
     fixes taken while it was driven (at their own times), then the wall and any fix after the
     last pose; ``first``: the number of the track's first pose (a live run sends it in
-    stretches)."""
+    stretches). ``whole`` (a file, where a viewer may jump to any time and gets the latest
+    message only): each message's entity ``track`` holds the track so far instead
+    (:func:`so_far`), with the wall, so that it replaces the one before."""
+    drawn = so_far if whole else segment
     for start in range(0, max(len(track.truth) - 1, 0), SEGMENT):
         end = min(start + SEGMENT, len(track.truth) - 1)
         t = track.truth[end].t
         after = track.truth[start].t if first + start > 0 else -math.inf
-        lines = [line(track.truth[start:end + 1], TRUE_COLOR)]
+        lines = [line(drawn(track.truth, start, end), TRUE_COLOR)]
         if track.estimate:
-            lines.append(line(track.estimate[start:end + 1], ESTIMATE_COLOR))
-        entities = [entity(t, f"track/{first + start}", lines=lines)]
+            lines.append(line(drawn(track.estimate, start, end), ESTIMATE_COLOR))
+        entities = [entity(t, "track" if whole else f"track/{first + start}", lines=lines)]
+        if whole and track.plane:
+            entities.append(wall_entity(track, t))
         fixes = [f for f in track.fixes if after < f[0] <= t]
         if fixes:
             entities.append(entity(t, f"usbl/{first + start}", spheres=spheres(fixes)))
@@ -191,6 +211,17 @@ def track_messages(track: Track, first: int = 0) -> Iterable[Message]:
                       {"deletions": [], "entities": entities})
     if track.truth:
         yield usbl_and_wall(track)
+
+
+def segment(poses: list[Pose], start: int, end: int) -> list[Pose]:
+    """The poses from ``start`` to ``end``, both included."""
+    return poses[start:end + 1]
+
+
+def so_far(poses: list[Pose], start: int, end: int) -> list[Pose]:
+    """The poses up to ``end``: every :data:`STRIDE`-th before ``start``, then each one (a
+    line of about 10,000 points for the dam's 20 minutes, where all of them make 60,000)."""
+    return [*poses[:start:STRIDE], *poses[start:end + 1]]
 
 
 def line(poses: list[Pose], color: dict[str, float]) -> dict[str, Any]:
@@ -217,16 +248,20 @@ def spheres(fixes: list[tuple[float, float, float, float, bool]]) -> list[dict[s
             for t, x, y, z, ok in fixes]
 
 
-def usbl_and_wall(track: Track) -> Message:
-    """The wall (the plane x = 0, as far as the track goes) and the USBL fixes taken after the
-    track's last pose, at that pose's time."""
-    t = track.truth[-1].t
+def wall_entity(track: Track, t: float) -> dict[str, Any]:
+    """The wall, the plane x = 0, as far as the whole track goes (grey)."""
     ys = [p.y for p in track.truth]
     zs = [p.z for p in track.truth]
     wall = {"pose": pose_of(Pose(t, -0.05, (min(ys) + max(ys)) / 2, max(zs) / 2 + 0.5, 0.0)),
             "size": {"x": 0.1, "y": max(ys) - min(ys) + 4.0, "z": max(zs) + 1.0},
             "color": {"r": 0.6, "g": 0.6, "b": 0.6, "a": 0.4}}
-    entities = [entity(t, "wall", cubes=[wall])] if track.plane else []
+    return entity(t, "wall", cubes=[wall])
+
+
+def usbl_and_wall(track: Track) -> Message:
+    """The wall and the USBL fixes taken after the track's last pose, at that pose's time."""
+    t = track.truth[-1].t
+    entities = [wall_entity(track, t)] if track.plane else []
     late = [f for f in track.fixes if f[0] > t]
     if late:
         entities.append(entity(t, "usbl/after", spheres=spheres(late)))
@@ -272,8 +307,9 @@ class Run:
         """Its messages (an image's read when written), each with its time."""
         track = self.track
         messages = [*LogMessages.of_log(self.records),
+                    *(frame_messages(track) if track is not None else ()),
                     *(pose_messages(track) if track is not None else ()),
-                    *(track_messages(track) if track is not None else ())]
+                    *(track_messages(track, whole=True) if track is not None else ())]
         out: list[tuple[float, Message | Callable[[], Message]]] = [(m.t, m) for m in messages]
         out += [(p.t, image_message(p)) for p in self.pictures]
         return out
