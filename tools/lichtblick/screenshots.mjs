@@ -18,7 +18,9 @@
 //            (default 20), so that the Log panel holds every line; play:SECONDS up to that
 //            mission time (the file lichtblick-play-SECONDS.png);
 //   serve    no screenshot: print the page's address and serve until Ctrl-C.
-// The default is `play:240 1200`. Bad arguments: one line, exit 2.
+// The default is `play:240 1200`. Bad arguments: one line, exit 2. Environment: CHROMIUM (the
+// browser), LICHTBLICK_SPEED, LICHTBLICK_PORT (default: a free one), LICHTBLICK_SETTLE_MS
+// (the wait before each screenshot, default 5000), LICHTBLICK_DEBUG=1 (the page's console).
 
 import { createReadStream, existsSync, mkdirSync, readFileSync, statSync } from "node:fs";
 import { createServer } from "node:http";
