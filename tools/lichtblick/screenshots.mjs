@@ -1,7 +1,7 @@
 // Screenshots of a run's MCAP file opened in Lichtblick (the open-source fork of Foxglove
 // Studio), as a new user sees it: docs/MCAP.md, "Seen in Lichtblick".
 //
-// Not part of `make test`: it needs a Lichtblick web build (about 1.3 GB with its node_modules).
+// Not part of `make test`: it needs a Lichtblick web build (1.6 GB with its node_modules).
 //
 //   node tools/lichtblick/screenshots.mjs LICHTBLICK_DIR RUN.mcap OUT_DIR [WHEN ...]
 //
