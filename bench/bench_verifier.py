@@ -129,27 +129,43 @@ def time_peer(kind: str, pnml: Path, timeout: float) -> dict[str, object]:
     return {"markings": out["markings"], "seconds": statistics.median(out["seconds"])}
 
 
-def run(argv: list[str]) -> tuple[float, float, float, str]:
-    """(wall seconds, CPU seconds of the process, its peak RSS in MB, its output)."""
+# Whole processes are started by a small Python of their own: a child's peak resident memory
+# (ru_maxrss) counts its parent's as it was at the fork, and this process holds a graph by then.
+LAUNCHER = r'''
+import json, os, subprocess, sys, time
+out = []
+for argv in json.loads(sys.argv[1]):
     start = time.perf_counter()
-    proc = subprocess.Popen(argv, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                            text=True)
-    assert proc.stdout is not None
-    out = proc.stdout.read()
+    proc = subprocess.Popen(argv, cwd=sys.argv[2], stdout=subprocess.PIPE,
+                            stderr=subprocess.DEVNULL, text=True)
+    text = proc.stdout.read()
     _, status, usage = os.wait4(proc.pid, 0)
-    seconds = time.perf_counter() - start
-    if os.waitstatus_to_exitcode(status) not in (0, 4):  # 4: undecided (a limit)
-        raise RuntimeError(f"{argv[-1]}: exit {os.waitstatus_to_exitcode(status)}")
-    return seconds, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024, out
+    out.append([time.perf_counter() - start, usage.ru_utime + usage.ru_stime,
+                usage.ru_maxrss / 1024, os.waitstatus_to_exitcode(status), text])
+print(json.dumps(out))
+'''
+
+
+def run_all(argvs: list[list[str]]) -> list[tuple[float, float, float, str]]:
+    """(wall seconds, CPU seconds, peak RSS in MB, output) of each process, one after the
+    other, started by :data:`LAUNCHER`."""
+    proc = subprocess.run([sys.executable, "-c", LAUNCHER, json.dumps(argvs), str(REPO)],
+                          capture_output=True, text=True, check=True)
+    results = []
+    for argv, (seconds, cpu, megabytes, status, out) in zip(argvs,
+                                                            json.loads(proc.stdout)):
+        if status not in (0, 4):  # 4: undecided (a limit)
+            raise RuntimeError(f"{argv[-1]}: exit {status}")
+        results.append((seconds, cpu, megabytes, out))
+    return results
 
 
 def whole_process(pnml: Path, runs: int, peer: list[str] | None) -> list[str]:
     """The lines of ``mclc MODEL.pnml`` (and the C peer, in alternation) measured whole."""
-    ours, theirs, what = [], [], ""
-    for _ in range(runs):
-        ours.append(run([sys.executable, "-m", "app.mclc", str(pnml), "--json"]))
-        if peer is not None:
-            theirs.append(run(peer))
+    mclc = [sys.executable, "-m", "app.mclc", str(pnml), "--json"]
+    results = run_all([argv for _ in range(runs) for argv in ([mclc] + ([peer] if peer else []))])
+    step = 2 if peer else 1
+    ours, theirs = results[::step], results[1::step] if peer else []
     report = json.loads(ours[-1][3])
     what = f"{report['method']}, {report['markings']:,} markings, {report['arcs']:,} arcs"
     rows = [("mclc", ours)] + ([("C BFS (cc -O2, 1 core)", theirs)] if theirs else [])

@@ -1,6 +1,7 @@
 """The breadth-first search of :mod:`petri.verification.reachability` with each marking packed
 into one 64-bit word (:mod:`petri.verification.packed_words`): plain numpy, no compiler, both
-cores. What ``auto`` takes for a search without its arcs (``mclc NET.pnml``'s) whose markings fit.
+cores. What ``auto`` takes for a search without its arcs (``mclc NET.pnml``'s), or any when numba
+is missing, whose markings fit.
 
 A level at a time: the frontier's words, sorted, are cut into slices of at most
 :data:`SLICE_ROWS`; each slice fires every transition at once, merges its successors into
@@ -21,7 +22,8 @@ loses a marking.
 What it holds per marking: its word twice (sorted, and by number: 16 bytes), its parent and
 the transition from it, its number of successors (12), and its row of token counts, made from
 the words by number once the sorted ones are dropped. On Kanban-PT-00005 (2,546,432 markings,
-24,460,016 arcs, 16 places) that is 121 MB of resident memory for the whole process.
+24,460,016 arcs, 16 places) ``mclc`` peaks at 129 MB of resident memory, 1.78 times the C
+peer's (bench/peers/bfs.c), in 0.42 times its CPU time (``make bench``, load 9.5 on 2 cores).
 """
 
 from __future__ import annotations
@@ -55,14 +57,16 @@ PARALLEL: bool | None = None
 # never holds an array and its grown copy at once.
 RESERVE_BYTES = 256 << 20
 MERGE_ROWS = 1 << 16  # visited markings moved at a time when a level is merged in
+MERGE_CANDIDATES = 1 << 20  # a level's new markings waiting before they are merged
 
 
 def release_freed_memory() -> None:
     """Give the memory freed in the C heap back to the system (glibc's ``malloc_trim``;
     nothing elsewhere). glibc keeps what a level's work arrays took once they are freed (up
     to 64 MiB at the heap's top), to serve the next level; the search calls this when its
-    levels have shrunk, and before the markings are unpacked: on Kanban-PT-00005 it lowered
-    the peak resident memory from 152 MB to N MB."""
+    levels have shrunk, and before the markings are unpacked: on Kanban-PT-00005 (in one
+    process, one thread) the peak resident memory is 125-127 MB with it, 140 MB without, for
+    the same CPU time."""
     try:
         trim = ctypes.CDLL(None).malloc_trim
     except (OSError, AttributeError):
@@ -144,7 +148,11 @@ def explore_rows(net: Any, max_markings: int, max_tokens: int, arcs: bool = True
         while len(frontier):
             small = len(frontier) * search.rule.n_trans < 2**31  # orders fit int32
             rel: Ints = (ids - lo).astype(np.int32 if small else np.int64)
-            slices = _expand_level(search, frontier, rel, pool)
+            slices = _expand_level(search, frontier, rel, pool, max_bytes,
+                                   len(net.row) * net.row.itemsize)
+            if slices is None:
+                status, at = _MEMORY_LIMIT, lo
+                break
             need = {p: k for s in slices for p, k in s.need.items()}
             if need:  # a field overflowed: widen it, repack, expand the level again
                 wider = _widened(search.packing, need, top)
@@ -195,14 +203,19 @@ def _start(net: Any, packing: Packing, max_markings: int, max_tokens: int, top: 
     return search
 
 
-def _expand_level(search: Search, frontier: Words, rel: Ints,
-                  pool: ThreadPoolExecutor | None) -> list[Slice]:
-    """The level's slices, expanded in frontier order (on the pool's threads if any)."""
+def _expand_level(search: Search, frontier: Words, rel: Ints, pool: ThreadPoolExecutor | None,
+                  max_bytes: float, row_bytes: int) -> list[Slice] | None:
+    """The level's slices, expanded in frontier order (two at a time on the pool's threads
+    if any), or None when what they found would take the search past ``max_bytes``.
+
+    Without the arcs, the slices' new markings are merged into distinct ones (into the first
+    slice's keys) whenever those waiting outnumber :data:`MERGE_CANDIDATES` and the merged
+    ones: a wide level holds about its new markings, not every firing that finds them (on a
+    level of 28 two-state cycles, 21 firings find each)."""
     rows = SLICE_ROWS
     if pool is not None:  # at least two slices on a wide level, so both threads work
         rows = max(1024, min(rows, -(-len(frontier) // 2)))
     cuts = range(0, len(frontier), rows)
-
     n = search.n
     numbers = None if search.numbers is None else search.numbers[:n]
 
@@ -210,9 +223,29 @@ def _expand_level(search: Search, frontier: Words, rel: Ints,
         return expand_slice(frontier[a:a + rows], rel[a:a + rows], search.rule,
                             search.packing, search.visited[:n], numbers)
 
-    if pool is None or len(cuts) < 2:
-        return [one(a) for a in cuts]
-    return list(pool.map(one, cuts))
+    width = 1 if pool is None else 2
+    slices: list[Slice] = []
+    merged = waiting = 0  # new markings in the first slice's keys, and in the others'
+    for k in range(0, len(cuts), width):
+        batch = cuts[k:k + width]
+        slices += [one(a) for a in batch] if len(batch) < 2 or pool is None else \
+            list(pool.map(one, batch))
+        if any(s.need for s in slices[-len(batch):]):
+            return slices  # the caller widens the fields and expands the level again
+        waiting += sum(len(s.keys) for s in slices[-len(batch):])
+        if numbers is None and waiting > max(MERGE_CANDIDATES, merged):
+            first = slices[0]
+            first.keys, first.order = distinct(np.concatenate([s.keys for s in slices]),
+                                               np.concatenate([s.order for s in slices]))[:2]
+            for s in slices[1:]:
+                s.keys, s.order = first.keys[:0], first.order[:0]
+            merged, waiting = len(first.keys), 0
+        found = sum(s.keys.nbytes + s.order.nbytes for s in slices) + sum(
+            s.arc_order.nbytes + s.arc_target.nbytes for s in slices
+            if s.arc_order is not None and s.arc_target is not None)
+        if search.held(n + merged + waiting, row_bytes) + 3 * found > max_bytes:
+            return None
+    return slices
 
 
 def _widened(packing: Packing, need: dict[int, int], top: int) -> Packing:

@@ -10,9 +10,10 @@ open-addressing hash table (linear probing) of row numbers; arcs of the reachabi
 three integer arrays. The successor loop is compiled with numba when it is installed
 (:mod:`petri.verification.explore_numba`); otherwise a level-by-level numpy search
 (:mod:`petri.verification.explore_numpy`) computes the same numbering, more slowly. A search
-without its arcs (``arcs=False``, ``mclc NET.pnml``'s) whose markings fit one 64-bit word is
-done in numpy on packed words instead (:mod:`petri.verification.explore_packed`: faster than
-numba's, and without numba's memory), the same numbering again.
+without its arcs (``arcs=False``, ``mclc NET.pnml``'s), or any when numba is missing, whose
+markings fit one 64-bit word is done in numpy on packed words instead
+(:mod:`petri.verification.explore_packed`: faster than numba's, and without numba's memory),
+the same numbering again.
 
 A limit (markings, or tokens in one place) stops the search with ``complete=False``. When it
 stops, the firing sequence to the last marking is checked for the Karp-Miller witness of
@@ -177,8 +178,9 @@ def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
     64-bit word). ``arcs=False`` keeps only the number of successors of each marking and of
     firings of each transition (``degree``, ``fired``), not the arcs: enough for deadlocks,
     dead transitions and bounds, in a third of the memory. "auto" takes the bits engine for
-    1-safe nets (given up past SMALL_SAFE_MARKINGS on narrow ones), then, without arcs, the
-    packed one where markings fit a word, else numba's (numpy's when numba is missing).
+    1-safe nets (given up past SMALL_SAFE_MARKINGS on narrow ones), then the packed one where
+    markings fit a word, for a search without arcs (or any, when numba is missing), else
+    numba's (numpy's when numba is missing).
     """
     if not 1 <= max_markings < 2**31:
         raise ValueError("max_markings must lie in [1, 2**31)")
@@ -203,7 +205,7 @@ def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
             return ss
     compiled = compile_net(net, max_tokens)
     found = None
-    if engine == "packed" or (engine == "auto" and not arcs):
+    if engine == "packed" or (engine == "auto" and (not arcs or default_engine() == "numpy")):
         # lazily, as the other engines: its threads and ctypes cost start-up time
         from petri.verification.explore_packed import explore_rows as packed_rows
 

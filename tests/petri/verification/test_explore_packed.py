@@ -55,11 +55,12 @@ def test_the_packed_search_numbers_markings_as_the_numpy_engine() -> None:
     assert compare_on_random_nets(60, seed=11) >= 60
 
 
-def test_two_threads_and_tiny_slices_give_the_same_graph(
+def test_two_threads_tiny_slices_and_merged_slices_give_the_same_graph(
         monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(explore_packed, "PARALLEL", True)
     monkeypatch.setattr(explore_packed, "SLICE_ROWS", 2)  # many slices per level
     monkeypatch.setattr(explore_packed, "MERGE_ROWS", 3)  # many blocks per merge
+    monkeypatch.setattr(explore_packed, "MERGE_CANDIDATES", 2)  # a level's slices merged
     assert explore_packed.threads() == 2
     assert compare_on_random_nets(25, seed=5) >= 25
 
@@ -87,7 +88,7 @@ def test_an_unbounded_place_stops_at_the_token_limit_with_its_witness() -> None:
     assert ss.n_markings == 256 and ss.expanded == 255
 
 
-def test_markings_wider_than_a_word_take_another_engine(
+def test_markings_wider_than_a_word_take_another_engine_and_without_numba_the_arcs_not(
         monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "petri.verification.explore_numba", None)  # numpy's,
     monkeypatch.delattr(petri.verification, "explore_numba", raising=False)  # not numba's
@@ -109,6 +110,16 @@ def test_markings_wider_than_a_word_take_another_engine(
     ss = rg.explore(grown, arcs=False)
     assert ss.engine == "numpy" and ss.stop_reason == "more than 255 tokens in a place"
     assert_same(rg.explore(grown, engine="numpy", arcs=False), ss, "grown")
+    # without numba, the arcs too are searched on packed words where they fit
+    assert rg.explore(cycles(3), arcs=True, engine="auto").engine == "bits"
+    ring = Net("ring")  # not 1-safe: no bits engine
+    p, q = ring.add_place("p"), ring.add_place("q")
+    ring.add_transition("there", {p: 1}, {q: 1})
+    ring.add_transition("back", {q: 1}, {p: 1})
+    ring.initial = {p: 3}
+    ss = rg.explore(ring, arcs=True)
+    assert ss.engine == "packed" and ss.n_arcs == 6
+    assert_same(rg.explore(ring, engine="numpy", arcs=True), ss, "ring")
 
 
 @pytest.mark.slow
