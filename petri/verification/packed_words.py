@@ -80,13 +80,33 @@ class Packing:
 
 
 def first_packing(net: Any, top: int) -> Packing:
-    """The packing the search starts with: each place that some transition changes gets
-    the bits of its initial count (at least one, at most ``top``), the others none."""
+    """The packing the search starts with: each place that some transition changes gets the
+    bits of the largest initial count of the net (tokens move: in a net that keeps its
+    tokens, as Kanban-PT-00005, that is every place's bound, and no field is ever widened), or
+    if that does not fit a word, those of its own initial count; at least one, at most
+    ``top``. A place no transition changes gets none."""
     m0 = [int(x) for x in net.row]
     changed = set(int(p) for p in net.eff_place)
-    bits = tuple(min(top, max(1, m0[p].bit_length())) if p in changed else 0
-                 for p in range(len(m0)))
+    most = max(m0, default=0).bit_length()
+    for least in (most, 0):
+        bits = tuple(min(top, max(1, least, m0[p].bit_length())) if p in changed else 0
+                     for p in range(len(m0)))
+        if sum(bits) <= WORD_BITS:
+            break
     return Packing(bits, tuple(m0))
+
+
+def widened(packing: Packing, need: dict[int, int], top: int, hint: int) -> Packing:
+    """``packing`` with the field of each place p of ``need`` wide enough for ``need[p]``
+    tokens: at least a bit more, and the ``hint``'s bits if they fit a word (fewer widenings,
+    each of which repacks every marking found), at most ``top``."""
+    for least in (hint, 0):
+        bits = list(packing.bits)
+        for p, tokens in need.items():
+            bits[p] = min(top, max(bits[p] + 1, tokens.bit_length(), least))
+        if sum(bits) <= WORD_BITS:
+            break
+    return Packing(tuple(bits), packing.constant)
 
 
 @dataclass(frozen=True)
@@ -105,6 +125,7 @@ class Rules:
     in_row: Ints  # the row of each input arc's place among them
     in_low: Words
     in_start: Ints
+    in_more: list[tuple[Ints, Ints]]  # for the k-th inputs (k >= 1): (which of in_t, arc)
     in_t: Ints
     always: Ints
     over_place: Ints
@@ -169,7 +190,12 @@ def rules(net: Any, packing: Packing, max_tokens: int, top: int) -> Rules:
     def words(values: list[int]) -> Words:
         return np.asarray(values, dtype=np.uint64)
 
+    ends = in_start[1:] + [len(in_place)]
+    more = [(ints([i for i, (a, b) in enumerate(zip(in_start, ends)) if b - a > k]),
+             ints([a + k for a, b in zip(in_start, ends) if b - a > k]))
+            for k in range(1, max((b - a for a, b in zip(in_start, ends)), default=1))]
     return Rules(masks, ints([row_of[p] for p in in_place]), words(in_low), ints(in_start),
+                 more,
                  ints(in_t),
                  ints(always), ints(over_place),
                  ints([row_of[p] for p in over_place]), words(over_low), ints(over_t),
@@ -230,7 +256,10 @@ def expand_slice(words: Words, rel: Ints, rule: Rules, packing: Packing, visited
     masked = words[None, :] & rule.masks[:, None]  # (fields, rows): each field in place
     if len(rule.in_t):
         ok = masked[rule.in_row] >= rule.in_low[:, None]
-        fires[rule.in_t] = np.logical_and.reduceat(ok, rule.in_start, axis=0)
+        enabled = ok[rule.in_start]  # each transition's first input, then its others
+        for which, arc in rule.in_more:
+            enabled[which] &= ok[arc]
+        fires[rule.in_t] = enabled
     fires[rule.always] = True
     found = Slice(rel, fires, words[:0], rel[:0])
     if len(rule.over_t):

@@ -11,8 +11,9 @@ import pytest
 
 import petri.verification
 from petri.net import Net
-from petri.verification import explore_packed
+from petri.verification import explore_packed, packed_words
 from petri.verification import reachability as rg
+from petri.verification.packed_words import Packing
 from tests.petri.verification.test_memory_budget import cycles
 from tests.petri.verification.test_reachability import random_net
 
@@ -65,15 +66,26 @@ def test_two_threads_tiny_slices_and_merged_slices_give_the_same_graph(
     assert compare_on_random_nets(25, seed=5) >= 25
 
 
-def test_fields_widen_as_places_fill() -> None:
-    # 'pile' starts empty (one bit) and ends with 200 tokens (eight bits): widened on the way
+def test_fields_widen_as_places_fill(monkeypatch: pytest.MonkeyPatch) -> None:
+    # 'pile' starts with the bit of the largest initial count (1) and ends with 200 tokens
+    # (eight bits): widened on the way, the level expanded again
     net = Net("fill")
     source, pile = net.add_place("source"), net.add_place("pile")
-    net.add_transition("move", {source: 1}, {pile: 1})
-    net.initial = {source: 200}
+    net.add_transition("pour", {source: 1}, {pile: 200})
+    net.add_transition("take", {pile: 1}, {})
+    net.initial = {source: 1}
+    widths = []
+
+    def widened(packing: Packing, need: dict[int, int], top: int, hint: int) -> Packing:
+        wider = packed_words.widened(packing, need, top, hint)
+        widths.append(wider.bits[:2])
+        return wider
+
+    monkeypatch.setattr(explore_packed, "widened", widened)
     ss = rg.explore(net, arcs=False)
-    assert ss.engine == "packed" and ss.complete and ss.n_markings == 201
-    assert ss.markings[-1].tolist() == [0, 200] and rg.deadlocks(ss).tolist() == [200]
+    assert widths == [(1, 8)]
+    assert ss.engine == "packed" and ss.complete and ss.n_markings == 202
+    assert ss.markings[1].tolist() == [0, 200] and rg.deadlocks(ss).tolist() == [201]
     assert_same(rg.explore(net, engine="numpy", arcs=False), ss, "fill")
 
 

@@ -19,8 +19,9 @@ def test_fields_follow_the_initial_marking_and_unchanged_places_take_no_bits() -
     net.initial = {a: 5, c: 1}
     compiled = rg.compile_net(net, 255)
     packing = pw.first_packing(compiled, top=8)
-    assert packing.bits[:4] == (3, 1, 0, 1) and packing.shift[:4] == (0, 3, 4, 4)
-    assert packing.width == 5  # the row's padding cells take no bits either
+    # the bits of the largest initial count (5) for each place a transition changes
+    assert packing.bits[:4] == (3, 3, 0, 3) and packing.shift[:4] == (0, 3, 6, 6)
+    assert packing.width == 9  # the row's padding cells take no bits either
     word = packing.pack(compiled.row)
     assert word == 5
     cells = packing.unpack(np.array([word], dtype=np.uint64), np.uint8)
@@ -30,6 +31,16 @@ def test_fields_follow_the_initial_marking_and_unchanged_places_take_no_bits() -
     assert wider.unpack(again, np.uint8)[0, :4].tolist() == [5, 1, 1, 0]
     rule = pw.rules(compiled, packing, 255, 8)
     assert rule.always.tolist() == [] and rule.in_t.tolist() == [0]  # u: never enabled
+    # where those bits would not fit a word, each place starts with its own count's
+    for p in range(50):
+        net.add_transition(f"v{p}", {net.add_place(f"x{p}"): 1}, {a: 1})
+    net.initial[a] = 200
+    compiled = rg.compile_net(net, 255)
+    packing = pw.first_packing(compiled, top=8)
+    assert packing.bits[:4] == (8, 1, 0, 1) and packing.width == 8 + 2 + 50
+    wider = pw.widened(packing, {1: 2, 3: 5}, top=8, hint=8)  # 8 + 8 bits: too wide
+    assert wider.bits[:4] == (8, 2, 0, 3) and wider.width == 8 + 5 + 50
+    assert pw.widened(packing, {1: 2}, top=8, hint=3).bits[:4] == (8, 3, 0, 1)
 
 
 def test_the_firing_rule_on_words_is_the_rule_on_token_counts() -> None:
