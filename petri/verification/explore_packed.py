@@ -24,8 +24,8 @@ loses a marking.
 What it holds per marking: its word twice (sorted, and by number: 16 bytes), its parent and
 the transition from it, its number of successors (12), and its row of token counts, made from
 the words by number once the sorted ones are dropped. On Kanban-PT-00005 (2,546,432 markings,
-24,460,016 arcs, 16 places) ``mclc`` peaks at 129 MB of resident memory, 1.78 times the C
-peer's (bench/peers/bfs.c), in 0.42 times its CPU time (``make bench``, load 9.5 on 2 cores).
+24,460,016 arcs, 16 places) ``mclc`` peaks at 129 MB of resident memory, 1.79 times the C
+peer's (bench/peers/bfs.c), in 0.44 times its CPU time (``make bench``, load 5.3 on 2 cores).
 """
 
 from __future__ import annotations

@@ -208,7 +208,8 @@ def rules(net: Any, packing: Packing, max_tokens: int, top: int) -> Rules:
 class Slice:
     """What firing every transition from some frontier markings gave: the firings recorded
     (``fires[t, r]``: transition t from the slice's marking r, enabled and within the limits);
-    the successors not numbered yet (``keys``, distinct and sorted), each with the order of
+    the successors not numbered yet (``keys``, distinct and sorted; the search may merge
+    several slices' into the first one's), each with the order of
     the first firing that found it in the sequential search (``order`` = rel * transitions +
     t, rel the source's number less the level's first); the first firing over
     ``max_tokens`` (``over``; -1: none); the tokens fields must hold (``need``, {place:
