@@ -71,7 +71,7 @@ def release_freed_memory() -> None:
     the same CPU time."""
     try:
         trim = ctypes.CDLL(None).malloc_trim
-    except (OSError, AttributeError):
+    except (OSError, AttributeError, TypeError):  # no such C library (TypeError: Windows')
         return
     trim.argtypes = [ctypes.c_size_t]
     trim(0)
