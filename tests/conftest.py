@@ -73,6 +73,7 @@ SECONDS: dict[str, float] = {
     "tests/vehicle_adapters/test_mavlink_replay.py": 16,
     "tests/app/test_streams.py": 14,
     "tests/petri/verification/test_timed.py": 14,
+    "tests/petri/verification/test_explore_packed.py": 10,
     "tests/vehicle/servers/test_ardusub.py": 13,
     "tests/app/test_run_foxglove.py": 13,
     "tests/app/test_run_progress.py": 12,

@@ -109,7 +109,7 @@ def unexplored_report(net: Net, why: str) -> Report:
 def _auto(net: Net, max_markings: int, max_tokens: int, probe: int,
           symbolic_seconds: float, arcs: bool, max_bytes: float
           ) -> tuple[Report, rg.StateSpace | None]:
-    if symbolic.available() and symbolic.is_candidate(net):
+    if symbolic.is_candidate(net) and symbolic.available():  # dd's import only if it may serve
         ss = rg.explore(net, max_markings=min(probe, max_markings), max_tokens=max_tokens,
                         arcs=arcs, max_bytes=max_bytes)
         if ss.complete:

@@ -9,7 +9,11 @@ counts (``uint8`` when at most 255 tokens may lie in a place, wider otherwise) p
 open-addressing hash table (linear probing) of row numbers; arcs of the reachability graph are
 three integer arrays. The successor loop is compiled with numba when it is installed
 (:mod:`petri.verification.explore_numba`); otherwise a level-by-level numpy search
-(:mod:`petri.verification.explore_numpy`) computes the same numbering, more slowly.
+(:mod:`petri.verification.explore_numpy`) computes the same numbering, more slowly. A search
+without its arcs (``arcs=False``, ``mclc NET.pnml``'s), or any when numba is missing, whose
+markings fit one 64-bit word is done in numpy on packed words instead
+(:mod:`petri.verification.explore_packed`: faster than numba's, and without numba's memory),
+the same numbering again.
 
 A limit (markings, or tokens in one place) stops the search with ``complete=False``. When it
 stops, the firing sequence to the last marking is checked for the Karp-Miller witness of
@@ -57,7 +61,7 @@ class StateSpace:
     parent: npt.NDArray[np.int64] | None = None  # BFS tree: parent marking (-1 for row 0)
     parent_transition: npt.NDArray[np.int32] | None = None  # transition fired from parent
     stop_reason: str = ""  # "" when complete, else what limit stopped the search
-    engine: str = ""  # "numba" or "numpy"
+    engine: str = ""  # "bits", "packed", "numba" or "numpy"
     expanded: int = -1  # markings 0..expanded-1 have all their arcs (-1: all of them)
     # When explored with arcs=False, src/dst/transition are empty and these count the arcs:
     degree: npt.NDArray[np.int32] | None = None  # successors of each marking
@@ -169,10 +173,14 @@ def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
     Stops (``complete=False``) after ``max_markings`` markings, when a firing would put
     more than ``max_tokens`` tokens in a place, or when the next arrays the numba or numpy
     engine would allocate (estimated before they are) would take what it holds past
-    ``max_bytes`` ("the memory budget of N MiB"). ``engine`` is "auto", "numba" or "numpy".
-    ``arcs=False`` keeps only the number of successors of each marking and of firings of
-    each transition (``degree``, ``fired``), not the arcs: enough for deadlocks, dead
-    transitions and bounds, in a third of the memory.
+    ``max_bytes`` ("the memory budget of N MiB"). ``engine`` is "auto", "bits", "packed",
+    "numba" or "numpy" ("packed" raises ValueError for a net whose markings outgrow one
+    64-bit word). ``arcs=False`` keeps only the number of successors of each marking and of
+    firings of each transition (``degree``, ``fired``), not the arcs: enough for deadlocks,
+    dead transitions and bounds, in a third of the memory. "auto" takes the bits engine for
+    1-safe nets (given up past SMALL_SAFE_MARKINGS on narrow ones), then the packed one where
+    markings fit a word, for a search without arcs (or any, when numba is missing), else
+    numba's (numpy's when numba is missing).
     """
     if not 1 <= max_markings < 2**31:
         raise ValueError("max_markings must lie in [1, 2**31)")
@@ -196,9 +204,18 @@ def explore(net: Net, max_markings: int = 20_000_000, max_tokens: int = 255,
                 ss.expanded = int(expanded)  # type: ignore[call-overload]
             return ss
     compiled = compile_net(net, max_tokens)
-    name, kernel = _kernel(engine)
-    cells, parent, parent_t, src, dst, tr, status, stop_at, stop_t, degree, fired = kernel(  # type: ignore[operator]
-        compiled, max_markings, max_tokens, arcs, max_bytes)
+    found = None
+    if engine == "packed" or (engine == "auto" and (not arcs or default_engine() == "numpy")):
+        # lazily, as the other engines: its threads and ctypes cost start-up time
+        from petri.verification.explore_packed import explore_rows as packed_rows
+
+        found, name = packed_rows(compiled, max_markings, max_tokens, arcs, max_bytes), "packed"
+        if found is None and engine == "packed":
+            raise ValueError(f"the markings of {net.name} do not fit one 64-bit word")
+    if found is None:
+        name, kernel = _kernel(engine)
+        found = kernel(compiled, max_markings, max_tokens, arcs, max_bytes)  # type: ignore[operator]
+    cells, parent, parent_t, src, dst, tr, status, stop_at, stop_t, degree, fired = found
     markings = cells[:, : len(net.places)]
     ss = StateSpace(markings, src, dst, tr, status == COMPLETE, None, parent, parent_t,
                     engine=name, degree=degree, fired=fired)
