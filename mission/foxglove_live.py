@@ -23,7 +23,8 @@ from petri.net import Net
 from petri.semantics import block_of
 
 from mission.foxglove_schemas import SCHEMAS
-from mission.mcap_export import SEGMENT, Pose, Track, pose_messages, track_messages, track_of_survey
+from mission.mcap_export import (SEGMENT, Pose, Track, frame_messages, pose_messages, track_messages,
+                                 track_of_survey)
 from mission.mcap_messages import LogMessages, nanoseconds, source_order
 
 FOLLOW_EVERY = 0.2  # wall s between two looks at the survey's new poses
@@ -83,7 +84,7 @@ class LiveView:
                   "/vehicle/pose/true": "foxglove.PoseInFrame",
                   "/vehicle/pose/estimated": "foxglove.PoseInFrame",
                   "/navigator": "mcl.Navigation", "/vehicle/track": "foxglove.SceneUpdate",
-                  "/wall_tracker": "mcl.WallTracker"}
+                  "/wall_tracker": "mcl.WallTracker", "/tf": "foxglove.FrameTransform"}
         for topic, schema in topics.items():
             self.channels[topic] = foxglove.Channel(topic, schema=SCHEMAS[schema])
 
@@ -103,8 +104,10 @@ class LiveView:
                 channel.log(m.data, log_time=nanoseconds(m.t))
 
     def poses(self, track: Track) -> None:
-        """Publish the vehicle's poses and the navigator's error."""
+        """Publish the vehicle's poses and the navigator's error, with the frame they are in
+        (``/tf``, as in a file) each time, so that a viewer that connects late knows it too."""
         with self.lock:
+            self.publish(frame_messages(track))
             self.publish(pose_messages(track))
 
     def follow(self, survey: Any) -> None:
@@ -163,6 +166,7 @@ class LiveView:
             return
         pose = Pose(*(float(data[k]) for k in ("t", "x", "y", "z", "yaw")))
         with self.lock:
+            self.publish(frame_messages(Track([pose], [pose])))
             self.publish([m for m in pose_messages(Track([pose], [pose]))
                           if m.topic == "/vehicle/pose/estimated"])
 

@@ -136,3 +136,27 @@ def test_the_monitor_s_status_marks_a_task_no_longer_running_ended(live: LiveVie
     live.remote_status(status(3.0, [], "ok"))
     assert live.messages.status == "ok" and live.messages.states["Surface@9:5"] == "ended"
     jsonschema.validate(live.messages.status_message(3.0).data, SCHEMAS["mcl.MissionStatus"])
+
+
+def test_the_poses_frame_is_served_live_as_in_a_file(live: LiveView) -> None:
+    """Lichtblick's 3D panel knows frame ``world`` only through ``/tf`` (docs/MCAP.md, "Seen in
+    Lichtblick"): the live server sends it with the poses, valid against its schema."""
+    ws = WebSocket("127.0.0.1", live.port, PROTOCOL)
+    seen = channels(ws, {"/tf"})
+    assert seen["/tf"]["schemaName"] == "foxglove.FrameTransform"
+    ws.send_text(json.dumps({"op": "subscribe", "subscriptions": [
+        {"id": 1, "channelId": seen["/tf"]["id"]}]}))
+    for attempt in range(50):
+        live.poses(Track([Pose(0.2 * attempt, -1.5, 0.0, 1.0, 0.1)], []))
+        ws.sock.settimeout(0.2)
+        try:
+            (topic, log_time, frame), = received(ws, {1: "/tf"}, 1)
+            break
+        except TimeoutError:
+            continue
+    else:
+        pytest.fail("no frame received after subscribing")
+    jsonschema.validate(frame, SCHEMAS["foxglove.FrameTransform"])
+    assert (frame["parent_frame_id"], frame["child_frame_id"]) == ("surface", "world")
+    assert log_time == round(0.2 * attempt * 1e9)
+    ws.close()
