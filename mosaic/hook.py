@@ -1,8 +1,10 @@
 """What ``mcl run`` does with the camera: keep the images, then make the mosaic.
 
 :func:`attach` gives the simulated stack an image recorder writing beside the run log
-(``RUN.images/``); :func:`report` builds the mosaic and the coverage map when the run took
-images, writes them beside the run log and says where, with the figures.
+(``RUN.images/``), rendering and writing them in the camera's worker process while the
+simulation runs (vehicle/sensors/image_worker.py); :func:`report` builds the mosaic and the
+coverage map when the run took images, writes them beside the run log and says where, with the
+figures; :func:`detach` stops the camera's worker (every exit of ``mcl run`` calls it).
 """
 
 from __future__ import annotations
@@ -21,6 +23,15 @@ def attach(stack: Any, log_path: Path) -> None:
     stack.images = ImageRecorder(images_folder(log_path), seed=getattr(cfg, "seed", 1),
                                  wall_curvature=getattr(cfg, "wall_curvature", 0.0),
                                  background=True)  # rendering overlaps the simulation
+    stack.images.start()  # the worker makes the wall's texture while the vehicle dives
+
+
+def detach(stack: Any, wait: bool = False) -> None:
+    """Stop the camera's worker: with ``wait`` once the images queued are written, else at
+    once (a run stopped from outside). Safe to call twice."""
+    recorder = getattr(stack, "images", None)
+    if recorder is not None:
+        recorder.close(wait)
 
 
 def report(stack: Any, log_path: Path, say: Any) -> None:
@@ -32,6 +43,7 @@ def report(stack: Any, log_path: Path, say: Any) -> None:
 
     try:
         recorder.flush()  # the camera's worker may still be writing the last images
+        recorder.close()  # and is done: its core is the mosaic's
         started = time.perf_counter()
         result = build(recorder.folder)
         paths = write(result, log_path.with_suffix(""))
