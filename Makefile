@@ -65,6 +65,7 @@ bench: $(EXTRAS)
 	$(BIN)/python bench/bench_player.py
 	$(BIN)/python bench/bench_vehicle.py
 	$(BIN)/python bench/bench_mosaic.py
+	$(BIN)/python bench/bench_dam_run.py
 	$(BIN)/python bench/bench_trackers.py
 	$(BIN)/python bench/bench_zenoh.py
 	$(BIN)/python bench/bench_mavlink.py
