@@ -15,6 +15,7 @@ import json
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -55,12 +56,17 @@ class Result:
 
 
 def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool = True,
-          compare_without_prior: bool = True, per_image: int = 3) -> Result:
+          compare_without_prior: bool = True, per_image: int = 3,
+          memory: Callable[[int], Image | None] | None = None,
+          release: Callable[[], None] | None = None) -> Result:
     """The mosaic of a run's images folder (or of the run log beside it), stage by stage: the
     images prepared, the pairs registered, the poses aligned, the mosaic blended, the figures
-    (and, for a simulated run, the figures against the ground truth)."""
+    (and, for a simulated run, the figures against the ground truth). ``memory``: an image's
+    pixels by its index where the run still has them (else its PNG is read), ``release``
+    called once every image is read (that memory may go)."""
     clock = Clock()
     survey = read(path)
+    survey.memory = memory
     if not survey.frames:
         raise ValueError(f"{survey.folder}: the run took no images")
     prior = np.array([f.prior for f in survey.frames], dtype=float)
@@ -76,6 +82,9 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
         # the blending.
         texture = workers.submit(accuracy.truth_texture, survey.meta) if measuring else None
         images = prepare(survey, workers, detectors)
+        survey.memory = None
+        if release is not None:
+            release()
         clock.lap("features")
         matcher = Matcher(survey.k, images.features, workers, detectors, size)
         pairs = register(matcher, prior, images.usable, per_image)

@@ -43,9 +43,9 @@ def report(stack: Any, log_path: Path, say: Any) -> None:
 
     try:
         recorder.flush()  # the camera's worker may still be writing the last images
-        recorder.close()  # and is done: its core is the mosaic's
         started = time.perf_counter()
-        result = build(recorder.folder)
+        result = build(recorder.folder, memory=recorder.frame,  # the pixels, not the PNGs
+                       release=recorder.close)
         paths = write(result, log_path.with_suffix(""))
     except (ValueError, OSError) as exc:
         say(f"  mosaic: not made: {exc}")
@@ -54,6 +54,8 @@ def report(stack: Any, log_path: Path, say: Any) -> None:
         say(f"  mosaic: not made: internal error: {type(exc).__name__}: {exc} (a bug; "
             f"'mcl mosaic {log_path}' retries it)")
         return
+    finally:
+        recorder.close()  # the worker, and the images' shared memory
     say(f"  images: {recorder.folder} ({recorder.count})")
     for line in summary_lines(result, paths):
         say("  " + line)

@@ -12,6 +12,7 @@ import csv
 import json
 import math
 from dataclasses import dataclass, field
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -55,10 +56,17 @@ class Survey:
     frames: list[Frame]
     wall_x: float = 0.0
     meta: dict[str, Any] = field(default_factory=dict)
+    memory: Callable[[int], Image | None] | None = None  # an image's pixels by its index,
+    # when the run that took them still has them (mcl run: the camera worker's shared memory)
 
     def load(self, frame: Frame) -> Image | None:
+        """The frame's image: from memory if there, else its PNG decoded."""
         import cv2
 
+        if self.memory is not None:
+            kept = self.memory(frame.index)
+            if kept is not None:
+                return kept
         img = cv2.imread(str(self.folder / frame.file), cv2.IMREAD_COLOR)
         return None if img is None else np.asarray(img, dtype=np.uint8)
 

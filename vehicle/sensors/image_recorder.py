@@ -18,7 +18,7 @@ from typing import Any
 
 from vehicle.sensors.image_worker import ImageWorker
 from vehicle.sensors.image_writer import INDEX_FIELDS, ImageWriter, Pose
-from vehicle.sensors.wall_texture import TextureSpec
+from vehicle.sensors.wall_texture import Image, TextureSpec
 
 __all__ = ["INDEX_FIELDS", "ImageRecorder"]
 
@@ -68,6 +68,11 @@ class ImageRecorder:
         OSError)."""
         if self.sink is not None:
             self.sink.flush()
+
+    def frame(self, index: int) -> Image | None:
+        """Image ``index``'s pixels in memory (the worker's shared memory, after
+        :meth:`flush`, until :meth:`close`), or None: then its PNG has them."""
+        return self.sink.frame(index) if isinstance(self.sink, ImageWorker) else None
 
     def close(self, wait: bool = True) -> None:
         """Stop the writer or the worker (with ``wait``, once what is queued is written)."""

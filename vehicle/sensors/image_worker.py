@@ -28,7 +28,8 @@ from pathlib import Path
 from typing import Any
 
 from vehicle.sensors.image_writer import ImageWriter, Pose
-from vehicle.sensors.wall_texture import TextureSpec
+from vehicle.sensors.shared_frames import SharedFrames
+from vehicle.sensors.wall_texture import Image, TextureSpec
 
 POLL = 1.0  # s: how often a waiting side checks that the other is still there
 
@@ -41,14 +42,19 @@ class WorkerError(OSError):
 def serve(jobs: Any, answers: Any, folder: str, seed: int, wall_curvature: float,
           texture: TextureSpec | None, parent: int) -> None:
     """The worker's loop (in the child process): each job is ``("plan", path)``,
-    ``("image", index, name, t, pose, nav)`` or ``("flush", n)`` (answered with ``("flushed",
+    ``("image", index, name, t, pose, nav, block)`` (``block``: the name of the shared memory
+    where the image's pixels go, when it is a new one; vehicle/sensors/shared_frames.py) or ``("flush", n)`` (answered with ``("flushed",
     n)``, or ``("error", text)`` once a write failed); ``None`` ends it. The wall's texture is
     made first, while the simulation starts."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the terminal's: the parent decides
     signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    import cv2  # the worker's own: one core, the other is the simulation's
+
+    cv2.setNumThreads(1)  # no OpenCV thread pool spinning against the simulation
     writer = ImageWriter(Path(folder), seed=seed, wall_curvature=wall_curvature,
                          texture=texture, encoder=True)
     writer.camera()
+    frames = SharedFrames(owner=False)  # the pixels for the mosaic, beside the PNGs
     failed: str | None = None
     while True:
         try:
@@ -63,7 +69,10 @@ def serve(jobs: Any, answers: Any, folder: str, seed: int, wall_curvature: float
             if failed is None and job[0] == "plan":
                 writer.set_plan(job[1])
             elif failed is None and job[0] == "image":
-                writer.write(*job[1:])
+                index, block = job[1], job[6]
+                if block is not None:
+                    frames.open(index, block)
+                frames.put(index, writer.write(*job[1:6]))
             elif job[0] == "flush":
                 if failed is None:
                     writer.flush()
@@ -76,6 +85,7 @@ def serve(jobs: Any, answers: Any, folder: str, seed: int, wall_curvature: float
         writer.flush()
     finally:
         writer.close()
+        frames.close()
 
 
 class ImageWorker:
@@ -89,6 +99,7 @@ class ImageWorker:
         self._jobs: Any = ctx.Queue()
         self._answers: Any = ctx.Queue()
         self._flushes = 0
+        self.frames = SharedFrames(owner=True)
         self._lock = threading.Lock()
         self.process = ctx.Process(
             target=serve, name="camera",
@@ -101,7 +112,12 @@ class ImageWorker:
         self.send("plan", list(path))
 
     def write(self, index: int, name: str, t: float, pose: Pose, nav: dict[str, float]) -> None:
-        self.send("image", index, name, t, pose, nav)
+        self.send("image", index, name, t, pose, nav, self.frames.block_for(index))
+
+    def frame(self, index: int) -> Image | None:
+        """Image ``index``'s pixels as the worker rendered them (after :meth:`flush`), in
+        shared memory until :meth:`close`; None if they are only in its PNG."""
+        return self.frames.get(index)
 
     def send(self, *job: Any) -> None:
         if not self.process.is_alive():
@@ -150,6 +166,7 @@ class ImageWorker:
 
     def _release(self) -> None:
         atexit.unregister(self.close)
+        self.frames.close()
         for q in (self._jobs, self._answers):
             q.close()
             q.cancel_join_thread()  # never block the exit on a job no one will read

@@ -81,9 +81,10 @@ class ImageWriter:
         self._start()
         self._write_meta()
 
-    def write(self, index: int, name: str, t: float, pose: Pose, nav: dict[str, float]) -> None:
+    def write(self, index: int, name: str, t: float, pose: Pose,
+              nav: dict[str, float]) -> Image:
         """Render the image taken at t from the true ``pose`` and write it with its index
-        line (``nav``: the INDEX_FIELDS from nav_x on)."""
+        line (``nav``: the INDEX_FIELDS from nav_x on); the image rendered."""
         self._start()
         img = self.camera().render(pose, self._rng)  # in order: the generator's sequence
         row: dict[str, Any] = {"index": index, "t": round(t, 3), "file": name,
@@ -94,6 +95,7 @@ class ImageWriter:
             self._save(name, img, line)
         else:
             self._pending.append(self._encoder.submit(self._save, name, img, line))
+        return img
 
     def _save(self, name: str, img: Image, line: list[str]) -> None:
         import cv2

@@ -15,8 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip("cv2")
+cv2 = pytest.importorskip("cv2")
 
+from mosaic import build
 from vehicle.sensors.image_recorder import ImageRecorder
 from vehicle.sensors.image_worker import WorkerError
 from vehicle.sensors.wall_texture import TextureSpec
@@ -159,3 +160,28 @@ def test_mcl_run_stopped_by_a_signal_leaves_no_worker(tmp_path: Path, sig: int) 
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def _shared_blocks() -> set[str]:
+    return {p.name for p in Path("/dev/shm").glob("psm_*")} if Path("/dev/shm").is_dir() \
+        else set()
+
+
+def test_the_pixels_wait_in_shared_memory_for_the_mosaic(tmp_path: Path) -> None:
+    before = _shared_blocks()
+    rec = _record(tmp_path / "run.images", background=True)
+    for i in range(5):
+        kept = rec.frame(i)
+        assert kept is not None and not kept.flags.writeable
+        assert np.array_equal(kept, cv2.imread(str(tmp_path / "run.images" / f"{i:05d}.png")))
+    assert rec.frame(5) is None  # never taken
+    from_files = build.build(tmp_path / "run.images", mm_per_px=8.0, measure=False)
+    for png in (tmp_path / "run.images").glob("*.png"):
+        png.unlink()  # the mosaic from memory needs no PNG
+    from_memory = build.build(tmp_path / "run.images", mm_per_px=8.0, measure=False,
+                              memory=rec.frame)
+    assert from_memory.figures["used"] == 5 and not from_memory.skipped
+    assert np.array_equal(from_memory.mosaic, from_files.mosaic)
+    rec.close()
+    assert rec.frame(0) is None
+    assert _shared_blocks() - before == set(), "the shared memory outlived the recorder"
