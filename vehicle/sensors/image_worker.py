@@ -14,6 +14,12 @@ encoding thread in order). The worker is stopped on every exit: :meth:`ImageWork
 (``atexit``), and — should the main process die without either (SIGKILL) — the worker itself,
 which notices within a second that its parent is gone. SIGINT and SIGHUP, sent by a terminal
 to the whole process group, are the main process's to handle: the worker ignores them.
+
+The worker is a spawned interpreter, not a fork: a child forked after the parent has used
+OpenCV's thread pool deadlocks at its first OpenCV call (seen in the tests). Spawning costs the
+worker half a second of CPU (it imports the command's main module again, as multiprocessing
+does), on the other core; a script that attaches the camera needs the usual
+``if __name__ == "__main__":`` guard.
 """
 
 from __future__ import annotations
