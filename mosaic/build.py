@@ -14,8 +14,8 @@ from __future__ import annotations
 import json
 import os
 import time
-from concurrent.futures import ThreadPoolExecutor
 from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -60,14 +60,17 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
           compare_without_prior: bool = True, per_image: int = 3,
           max_bytes: int = image_files.MAX_BYTES,
           memory: Callable[[int], Image | None] | None = None,
-          release: Callable[[], None] | None = None) -> Result:
+          release: Callable[[], None] | None = None,
+          texture: Future[WallTexture | None] | None = None) -> Result:
     """The mosaic of a run's images folder (or of the run log beside it), stage by stage: the
     images prepared, the pairs registered, the poses aligned, the mosaic blended, the figures
     (and, for a simulated run, the figures against the ground truth). The images and the
     canvas are sized against ``max_bytes`` before they are allocated (mosaic/image_files.py):
     a survey that needs more is refused (SurveyError, ValueError) with the reason.
     ``memory``: an image's pixels by its index where the run still has them (else its PNG is
-    read), ``release`` called once every image is read (that memory may go)."""
+    read), ``release`` called once every image is read (that memory may go); ``texture``: the
+    ground truth's wall texture being made already (:func:`accuracy.truth_texture` of the
+    run's ``camera.json``; else it is made here, beside the features)."""
     clock = Clock()
     survey = read(path, max_bytes)
     survey.memory = memory
@@ -84,7 +87,8 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
         # the GIL. What the measuring needs is made beside the stages that do not use it:
         # the wall's texture beside the features, the alignment without the prior beside
         # the blending.
-        texture = workers.submit(accuracy.truth_texture, survey.meta) if measuring else None
+        if measuring and texture is None:
+            texture = workers.submit(accuracy.truth_texture, survey.meta)
         images = prepare(survey, workers, detectors)
         survey.memory = None
         if release is not None:
@@ -109,7 +113,7 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
             assert truth is not None
             _measure(result, truth, pairs.found, prior, blended.count,
                      alone.result() if alone is not None else None,
-                     texture.result() if texture is not None else None)
+                     texture.result() if texture is not None and measuring else None)
     return result
 
 

@@ -10,6 +10,8 @@ figures; :func:`detach` stops the camera's worker (every exit of ``mcl run`` cal
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -39,13 +41,18 @@ def report(stack: Any, log_path: Path, say: Any) -> None:
     recorder = getattr(stack, "images", None)
     if recorder is None or recorder.count == 0:
         return
-    from mosaic.build import build, summary_lines, write  # lazy: SciPy only for a mosaic
+    from mosaic.accuracy import truth_texture  # lazy: SciPy only for a mosaic
+    from mosaic.build import build, summary_lines, write
 
     try:
-        recorder.flush()  # the camera's worker may still be writing the last images
-        started = time.perf_counter()
-        result = build(recorder.folder, memory=recorder.frame,  # the pixels, not the PNGs
-                       release=recorder.close)
+        with ThreadPoolExecutor(1, thread_name_prefix="truth") as early:
+            # The ground truth's texture is made while the camera's worker writes its last
+            # images, on the core the simulation has left, not beside the features.
+            texture = early.submit(truth_texture, {"texture": asdict(recorder.texture_spec)})
+            recorder.flush()  # the camera's worker may still be writing the last images
+            started = time.perf_counter()
+            result = build(recorder.folder, memory=recorder.frame,  # the pixels, not the PNGs
+                           release=recorder.close, texture=texture)
         paths = write(result, log_path.with_suffix(""))
     except (ValueError, OSError) as exc:
         say(f"  mosaic: not made: {exc}")

@@ -3,6 +3,7 @@ registration, global alignment, damaged images, and ``mcl mosaic``. Small images
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -278,3 +279,22 @@ def test_the_camera_works_the_wall_out_by_column_as_it_would_pixel_by_pixel(
         partial += not bool((np.isfinite(r) & (r <= by_pixel.visibility)).all())
         assert np.array_equal(by_column.render(pose, ra), by_pixel.render(pose, rb)), pose
     assert partial >= 2  # both routes of render() taken
+
+
+def test_the_ground_truth_texture_made_ahead_is_the_one_measured_against(survey: Path) -> None:
+    """mcl run makes the wall's texture while the camera's worker writes its last images and
+    hands it to build(): the figures are those of the texture made inside, and another
+    texture handed in would be measured against (so the one handed in is the one used)."""
+    from concurrent.futures import Future
+
+    def made(spec: TextureSpec) -> Future[WallTexture | None]:
+        done: Future[WallTexture | None] = Future()
+        done.set_result(accuracy.truth_texture({"texture": dataclasses.asdict(spec)}))
+        return done
+
+    inside = build.build(survey, mm_per_px=8.0, compare_without_prior=False)
+    ahead = build.build(survey, mm_per_px=8.0, compare_without_prior=False, texture=made(SPEC))
+    other = build.build(survey, mm_per_px=8.0, compare_without_prior=False,
+                        texture=made(dataclasses.replace(SPEC, seed=8)))
+    assert ahead.figures["mosaic_error_mm"] == inside.figures["mosaic_error_mm"]
+    assert other.figures.get("mosaic_error_mm") != inside.figures["mosaic_error_mm"]

@@ -72,6 +72,11 @@ class ImageRecorder:
             self.sink.flush()
 
     @property
+    def texture_spec(self) -> TextureSpec:
+        """The wall's texture the images are rendered from (camera.json's ``texture``)."""
+        return self.texture or TextureSpec(seed=self.seed)
+
+    @property
     def failure(self) -> str:
         """Why images stopped being kept ("" while they are): the first that could not be
         written (a full disk, the folder removed); no image is rendered after it. The
