@@ -21,8 +21,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from vehicle.sensors.wall_texture import FloatArray, Image, WallTexture
+
+FloatImage = npt.NDArray[np.float32]
 
 WIDTH, HEIGHT = 320, 240  # pixels
 HFOV = math.radians(50.0)
@@ -119,7 +122,21 @@ class WallCamera:
 
     def render(self, pose: tuple[float, float, float, float],
                rng: np.random.Generator) -> Image:
-        """The B, G, R image (HEIGHT x WIDTH, uint8) seen from the pose."""
+        """The B, G, R image (HEIGHT x WIDTH, uint8) seen from the pose: :meth:`lit`, then
+        :meth:`expose` with the :meth:`noise` drawn from ``rng``."""
+        return self.expose(self.lit(pose), self.noise(rng))
+
+    def noise(self, rng: np.random.Generator) -> FloatImage:
+        """The sensor noise of one image, drawn from ``rng``: the only part of an image that
+        depends on the images before it (the generator's sequence), so that images can be
+        lit in any order, or at once, and come out the same."""
+        noise = rng.standard_normal((self.k.height, self.k.width, 3), dtype=np.float32)
+        noise *= self.light.noise
+        return noise
+
+    def lit(self, pose: tuple[float, float, float, float]) -> FloatImage:
+        """The light that reaches the sensor from the pose, before the sensor's noise: the
+        wall's texture under the lamp, through the water, blurred (float B, G, R)."""
         import cv2
 
         # A ray's horizontal slope is its column's, its vertical slope its row's: where a
@@ -143,13 +160,15 @@ class WallCamera:
         lost -= 1.0
         lost *= -self._back  # backscatter: the water's colour where the light was lost
         img += lost
-        img = cv2.GaussianBlur(img, (0, 0), self.light.blur)
-        noise = rng.standard_normal(img.shape, dtype=np.float32)
-        noise *= self.light.noise
-        img += noise
-        img += 0.5
-        np.clip(img, 0, 255, out=img)
-        return np.asarray(img, dtype=np.uint8)
+        return np.asarray(cv2.GaussianBlur(img, (0, 0), self.light.blur), dtype=np.float32)
+
+    @staticmethod
+    def expose(light: FloatImage, noise: FloatImage) -> Image:
+        """The sensor's 8-bit image of ``light`` with its ``noise`` (``light`` is used up)."""
+        light += noise
+        light += 0.5
+        np.clip(light, 0, 255, out=light)
+        return np.asarray(light, dtype=np.uint8)
 
     def centre(self, pose: tuple[float, float, float, float]) -> tuple[float, float] | None:
         """Wall (y, z) at the image's centre, None if the axis misses the wall."""

@@ -8,8 +8,10 @@ queue (a few hundred bytes), and the worker renders and writes the images in the
 were taken, with the one random generator of the run — the images are the same, bit for bit,
 as those rendered in the main process.
 
-Inside the worker, rendering and PNG encoding overlap (OpenCV's encoder releases the GIL; an
-encoding thread in order). The worker is stopped on every exit: :meth:`ImageWorker.close`
+Inside the worker, the noise of each image is drawn in order and the rest — lighting,
+exposure, PNG encoding, a copy into shared memory — runs in :data:`THREADS` threads (numpy and
+OpenCV release the GIL), so that the images the simulation has taken are rendered on both
+cores, not one, when it leaves one free (at its end, when the worker has images left). The worker is stopped on every exit: :meth:`ImageWorker.close`
 (after the images are flushed, or at once with ``wait=False``), the interpreter's exit
 (``atexit``), and — should the main process die without either (SIGKILL) — the worker itself,
 which notices within a second that its parent is gone. SIGINT and SIGHUP, sent by a terminal
@@ -38,6 +40,7 @@ from vehicle.sensors.shared_frames import SharedFrames
 from vehicle.sensors.wall_texture import Image, TextureSpec
 
 POLL = 1.0  # s: how often a waiting side checks that the other is still there
+THREADS = 2  # the worker's threads that light, expose and encode the images, one a core
 
 
 class WorkerError(OSError):
@@ -57,10 +60,10 @@ def serve(jobs: Any, answers: Any, folder: str, seed: int, wall_curvature: float
     import cv2  # the worker's own: one core, the other is the simulation's
 
     cv2.setNumThreads(1)  # no OpenCV thread pool spinning against the simulation
-    writer = ImageWriter(Path(folder), seed=seed, wall_curvature=wall_curvature,
-                         texture=texture, encoder=True)
-    writer.camera()
     frames = SharedFrames(owner=False)  # the pixels for the mosaic, beside the PNGs
+    writer = ImageWriter(Path(folder), seed=seed, wall_curvature=wall_curvature,
+                         texture=texture, threads=THREADS, on_image=frames.put)
+    writer.camera()
     failed: str | None = None
     while True:
         try:
@@ -78,9 +81,7 @@ def serve(jobs: Any, answers: Any, folder: str, seed: int, wall_curvature: float
                 index, block = job[1], job[6]
                 if block is not None:
                     frames.open(index, block)
-                img = writer.write(*job[1:6])
-                if img is not None:
-                    frames.put(index, img)
+                writer.write(*job[1:6])
             elif job[0] == "flush":
                 if failed is None:
                     writer.flush()
