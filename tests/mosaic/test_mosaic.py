@@ -281,6 +281,7 @@ def test_the_camera_works_the_wall_out_by_column_as_it_would_pixel_by_pixel(
     assert partial >= 2  # both routes of render() taken
 
 
+@pytest.mark.slow
 def test_the_ground_truth_texture_made_ahead_is_the_one_measured_against(survey: Path) -> None:
     """mcl run makes the wall's texture while the camera's worker writes its last images and
     hands it to build(): the figures are those of the texture made inside, and another
