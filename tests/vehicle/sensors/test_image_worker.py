@@ -20,6 +20,7 @@ cv2 = pytest.importorskip("cv2")
 from mosaic import build
 from vehicle.sensors.image_recorder import ImageRecorder
 from vehicle.sensors.image_worker import WorkerError
+from vehicle.sensors.image_writer import ImageWriter
 from vehicle.sensors.wall_texture import TextureSpec
 
 from tests.support import BIN, MISSIONS, REPO
@@ -83,6 +84,32 @@ def test_the_worker_writes_the_images_the_main_process_would(tmp_path: Path) -> 
         assert (tmp_path / "there.images" / name).read_bytes() == \
             (tmp_path / "here.images" / name).read_bytes(), name
     here.close()
+
+
+def test_images_lit_in_threads_are_those_lit_one_after_another(tmp_path: Path) -> None:
+    """The worker's writer draws each image's noise in order and lights, exposes and encodes
+    the images in threads, more of them in flight than it lets wait: the files, index.csv's
+    lines in order, and the pixels handed on are those of a writer that does one at a time."""
+    handed: dict[int, np.ndarray] = {}
+    one = ImageWriter(tmp_path / "one.images", seed=7, texture=SPEC)
+    many = ImageWriter(tmp_path / "many.images", seed=7, texture=SPEC, threads=2,
+                       on_image=lambda i, img: handed.__setitem__(i, img.copy()))
+    rng = np.random.default_rng(2)
+    for i in range(12):
+        pose = (-1.5 + rng.normal(0, 0.05), 0.5 + 0.15 * i, 1.0 + 0.1 * (i % 4), 0.02 * i)
+        kept = one.write(i, f"{i:05d}.png", 0.87 * i, pose, NAV)
+        assert many.write(i, f"{i:05d}.png", 0.87 * i, pose, NAV) is None  # in a thread
+        assert kept is not None
+        handed[100 + i] = kept
+    many.flush()
+    for w in (one, many):
+        w.close()
+    names = sorted(p.name for p in (tmp_path / "one.images").iterdir())
+    assert len(names) == 14
+    for name in names:
+        assert (tmp_path / "many.images" / name).read_bytes() == \
+            (tmp_path / "one.images" / name).read_bytes(), name
+    assert all(np.array_equal(handed[i], handed[100 + i]) for i in range(12))
 
 
 def test_a_worker_that_died_is_an_os_error_at_the_next_flush(tmp_path: Path) -> None:
