@@ -218,6 +218,10 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
         stops.restore()
         if live is not None:
             live.close(chosen.stack.survey if chosen.stack is not None else None)
+        if chosen.stack is not None and chosen.stack.images is not None:
+            from mosaic.hook import detach  # here for start-up speed, as attach
+
+            detach(chosen.stack)  # the camera's worker process ends with the run, always
 
 
 def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicle,

@@ -75,15 +75,26 @@ def control_points(mosaic: Image, truth: Image, count: npt.NDArray[np.uint16], c
     return np.array(out).reshape(-1, 4)
 
 
-def truth_on_canvas(meta: dict[str, object], canvas: Canvas) -> Image | None:
-    """The ground-truth texture on the mosaic's grid (None if the run has no texture spec)."""
+def truth_texture(meta: dict[str, object]) -> WallTexture | None:
+    """The run's wall texture, made (about a second of CPU; a thread may make it while the
+    mosaic is built), None if the run has no texture spec."""
     spec = meta.get("texture")
     if not isinstance(spec, dict):
         return None
     tex = WallTexture(TextureSpec(seed=int(spec["seed"]), mm_per_px=float(spec["mm_per_px"]),
                                   y_range=(float(spec["y_range"][0]), float(spec["y_range"][1])),
                                   z_range=(float(spec["z_range"][0]), float(spec["z_range"][1]))))
-    return tex.crop(canvas.y0, canvas.z0, canvas.mm_per_px, (canvas.rows, canvas.cols))
+    _ = tex.image  # made now, in the caller's thread
+    return tex
+
+
+def truth_on_canvas(meta: dict[str, object], canvas: Canvas,
+                    texture: WallTexture | None = None) -> Image | None:
+    """The ground-truth texture on the mosaic's grid (None if the run has no texture spec);
+    ``texture``: the run's, if already made."""
+    tex = texture or truth_texture(meta)
+    return None if tex is None else tex.crop(canvas.y0, canvas.z0, canvas.mm_per_px,
+                                             (canvas.rows, canvas.cols))
 
 
 def stats_mm(values_m: FloatArray) -> dict[str, float]:

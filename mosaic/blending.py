@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -24,6 +25,17 @@ FloatImage = npt.NDArray[np.float32]
 
 MM_PER_PX = 4.0  # the mosaic's default scale: about the camera's at 1.5 m (4.4 mm/px)
 NO_DATA = (40, 40, 40)  # B G R of wall no image saw
+
+
+class Warped(NamedTuple):
+    """An image warped onto the canvas: its box (rows y0:y1, columns x0:x1) and the weighted
+    B, G, R and the weight there."""
+
+    y0: int
+    y1: int
+    x0: int
+    x1: int
+    out: FloatImage
 
 
 @dataclass
@@ -88,6 +100,15 @@ class Blender:
         self.w3 = np.dstack([self.w] * 3)
 
     def add(self, img: Image | FloatImage, pose: FloatArray) -> None:
+        """Weight the image, warp it onto the canvas at ``pose`` and add it."""
+        warped = self.warp(img, pose)
+        if warped is not None:
+            self.accumulate(warped)
+
+    def warp(self, img: Image | FloatImage, pose: FloatArray) -> Warped | None:
+        """The weighted image (B, G, R, weight) warped onto its box of the canvas; None if
+        it misses the canvas. Independent of the other images: threads may warp several at
+        once (OpenCV releases the GIL), :meth:`accumulate` then adds them in order."""
         import cv2
 
         c = self.canvas
@@ -99,11 +120,17 @@ class Blender:
         x1 = min(int(np.ceil(q[:, 0].max())) + 1, c.cols)
         y1 = min(int(np.ceil(q[:, 1].max())) + 1, c.rows)
         if x1 <= x0 or y1 <= y0:
-            return
+            return None
         shift = np.array([[1, 0, -x0], [0, 1, -y0], [0, 0, 1.0]]) @ h
         src = cv2.merge([*cv2.split(cv2.multiply(img, self.w3, dtype=cv2.CV_32F)), self.w])
         out = cv2.warpPerspective(src, shift, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
                                   borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        return Warped(y0, y1, x0, x1, np.asarray(out, dtype=np.float32))
+
+    def accumulate(self, warped: Warped) -> None:
+        """Add a warped image to the canvas (in the images' order: the sums, to the last
+        bit, do not depend on how many threads warped them)."""
+        y0, y1, x0, x1, out = warped
         self.acc[y0:y1, x0:x1] += out
         self.count[y0:y1, x0:x1] += out[:, :, 3] > 1e-7
 

@@ -14,7 +14,8 @@ from __future__ import annotations
 import json
 import os
 import time
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,6 +40,7 @@ from mosaic.stages import (
     register,
     size_on_wall,
 )
+from vehicle.sensors.wall_texture import WallTexture
 
 Image = npt.NDArray[np.uint8]
 
@@ -56,40 +58,62 @@ class Result:
 
 def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool = True,
           compare_without_prior: bool = True, per_image: int = 3,
-          max_bytes: int = image_files.MAX_BYTES) -> Result:
+          max_bytes: int = image_files.MAX_BYTES,
+          memory: Callable[[int], Image | None] | None = None,
+          release: Callable[[], None] | None = None,
+          texture: Future[WallTexture | None] | None = None) -> Result:
     """The mosaic of a run's images folder (or of the run log beside it), stage by stage: the
     images prepared, the pairs registered, the poses aligned, the mosaic blended, the figures
     (and, for a simulated run, the figures against the ground truth). The images and the
     canvas are sized against ``max_bytes`` before they are allocated (mosaic/image_files.py):
-    a survey that needs more is refused (SurveyError, ValueError) with the reason."""
+    a survey that needs more is refused (SurveyError, ValueError) with the reason.
+    ``memory``: an image's pixels by its index where the run still has them (else its PNG is
+    read), ``release`` called once every image is read (that memory may go); ``texture``: the
+    ground truth's wall texture being made already (:func:`accuracy.truth_texture` of the
+    run's ``camera.json``; else it is made here, beside the features)."""
     clock = Clock()
     survey = read(path, max_bytes)
+    survey.memory = memory
     if not survey.frames:
         raise ValueError(f"{survey.folder}: the run took no images")
     prior = np.array([f.prior for f in survey.frames], dtype=float)
     prior_std = np.array([f.prior_std for f in survey.frames], dtype=float)
     size = size_on_wall(survey.k, prior)  # of an image, by the navigation data
+    truth = np.array([f.truth for f in survey.frames], dtype=float) if all(
+        f.truth is not None for f in survey.frames) else None
+    measuring = measure and truth is not None
     detectors = Detectors()
     with ThreadPoolExecutor(max(1, min(4, os.cpu_count() or 1))) as workers:  # OpenCV frees
-        images = prepare(survey, workers, detectors)  # the GIL
+        # the GIL. What the measuring needs is made beside the stages that do not use it:
+        # the wall's texture beside the features, the alignment without the prior beside
+        # the blending.
+        if measuring and texture is None:
+            texture = workers.submit(accuracy.truth_texture, survey.meta)
+        images = prepare(survey, workers, detectors)
+        survey.memory = None
+        if release is not None:
+            release()
         clock.lap("features")
         matcher = Matcher(survey.k, images.features, workers, detectors, size)
         pairs = register(matcher, prior, images.usable, per_image)
         clock.lap("registration")
         aligned = align(matcher, prior, prior_std, pairs, images.usable, per_image)
         clock.lap("alignment")
-    held = image_files.survey_bytes(len(survey.frames), survey.k.width, survey.k.height)
-    blended = blend(survey, images, aligned.poses, size, mm_per_px,
-                    min(60_000_000, image_files.canvas_pixels(max_bytes, held)))
-    clock.lap("blending")
-    figures = _figures(survey, images, pairs, aligned, blended, mm_per_px, clock)
-    result = Result(survey, blended.mosaic, blended.coverage, blended.canvas, aligned.poses,
-                    images.skipped, figures)
-    truth = np.array([f.truth for f in survey.frames], dtype=float) if all(
-        f.truth is not None for f in survey.frames) else None
-    if measure and truth is not None:
-        _measure(result, truth, pairs.found, prior, prior_std, blended.count,
-                 compare_without_prior)
+        alone = workers.submit(_without_prior, survey, images.skipped, prior, prior_std,
+                               list(pairs.found)) if (
+            measuring and compare_without_prior and pairs.found) else None
+        held = image_files.survey_bytes(len(survey.frames), survey.k.width, survey.k.height)
+        blended = blend(survey, images, aligned.poses, size, mm_per_px, workers,
+                        min(60_000_000, image_files.canvas_pixels(max_bytes, held)))
+        clock.lap("blending")
+        figures = _figures(survey, images, pairs, aligned, blended, mm_per_px, clock)
+        result = Result(survey, blended.mosaic, blended.coverage, blended.canvas,
+                        aligned.poses, images.skipped, figures)
+        if measuring:
+            assert truth is not None
+            _measure(result, truth, pairs.found, prior, blended.count,
+                     alone.result() if alone is not None else None,
+                     texture.result() if texture is not None and measuring else None)
     return result
 
 
@@ -149,9 +173,20 @@ def _per_cell(count: npt.NDArray[np.uint16]) -> dict[str, float]:
             "max": float(seen.max())}
 
 
+def _without_prior(survey: Survey, skipped: dict[int, str], prior: FloatArray,
+                   prior_std: FloatArray, pairs: list[registration.Pair]) -> FloatArray:
+    """The images' poses aligned without the navigation prior (the first used image held)."""
+    used = np.array([f.index not in skipped for f in survey.frames])
+    anchor = int(np.flatnonzero(used)[0])
+    return alignment.align(prior, prior_std, pairs, survey.k, use_prior=False,
+                           anchor=anchor).poses
+
+
 def _measure(result: Result, truth: FloatArray, pairs: list[registration.Pair],
-             prior: FloatArray, prior_std: FloatArray, count: npt.NDArray[np.uint16],
-             compare_without_prior: bool) -> None:
+             prior: FloatArray, count: npt.NDArray[np.uint16], alone: FloatArray | None,
+             texture: WallTexture | None) -> None:
+    """The figures against the ground truth; ``alone``: the poses aligned without the prior
+    (None: not compared); ``texture``: the run's wall texture, if already made."""
     k, fig = result.survey.k, result.figures
     used = np.array([f.index not in result.skipped for f in result.survey.frames])
     reg = accuracy.registration_errors(pairs, truth, k)
@@ -163,12 +198,10 @@ def _measure(result: Result, truth: FloatArray, pairs: list[registration.Pair],
         accuracy.position_errors(result.poses, truth, k)[used])
     fig["navigation_error_mm"] = accuracy.stats_mm(
         accuracy.position_errors(prior, truth, k)[used])
-    if compare_without_prior and pairs:
-        anchor = int(np.flatnonzero(used)[0])
-        alone = alignment.align(prior, prior_std, pairs, k, use_prior=False, anchor=anchor)
+    if alone is not None:
         fig["alignment_error_without_prior_mm"] = accuracy.stats_mm(
-            accuracy.position_errors(alone.poses, truth, k)[used])
-    gt = accuracy.truth_on_canvas(result.survey.meta, result.canvas)
+            accuracy.position_errors(alone, truth, k)[used])
+    gt = accuracy.truth_on_canvas(result.survey.meta, result.canvas, texture)
     if gt is not None:
         cp = accuracy.control_points(result.mosaic, gt, count, result.canvas)
         fig["control_points"] = len(cp)

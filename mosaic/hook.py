@@ -1,13 +1,17 @@
 """What ``mcl run`` does with the camera: keep the images, then make the mosaic.
 
 :func:`attach` gives the simulated stack an image recorder writing beside the run log
-(``RUN.images/``); :func:`report` builds the mosaic and the coverage map when the run took
-images, writes them beside the run log and says where, with the figures.
+(``RUN.images/``), rendering and writing them in the camera's worker process while the
+simulation runs (vehicle/sensors/image_worker.py); :func:`report` builds the mosaic and the
+coverage map when the run took images, writes them beside the run log and says where, with the
+figures; :func:`detach` stops the camera's worker (every exit of ``mcl run`` calls it).
 """
 
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +25,15 @@ def attach(stack: Any, log_path: Path) -> None:
     stack.images = ImageRecorder(images_folder(log_path), seed=getattr(cfg, "seed", 1),
                                  wall_curvature=getattr(cfg, "wall_curvature", 0.0),
                                  background=True)  # rendering overlaps the simulation
+    stack.images.start()  # the worker makes the wall's texture while the vehicle dives
+
+
+def detach(stack: Any, wait: bool = False) -> None:
+    """Stop the camera's worker: with ``wait`` once the images queued are written, else at
+    once (a run stopped from outside). Safe to call twice."""
+    recorder = getattr(stack, "images", None)
+    if recorder is not None:
+        recorder.close(wait)
 
 
 def report(stack: Any, log_path: Path, say: Any) -> None:
@@ -28,12 +41,18 @@ def report(stack: Any, log_path: Path, say: Any) -> None:
     recorder = getattr(stack, "images", None)
     if recorder is None or recorder.count == 0:
         return
-    from mosaic.build import build, summary_lines, write  # lazy: SciPy only for a mosaic
+    from mosaic.accuracy import truth_texture  # lazy: SciPy only for a mosaic
+    from mosaic.build import build, summary_lines, write
 
     try:
-        recorder.flush()  # the camera's worker may still be writing the last images
-        started = time.perf_counter()
-        result = build(recorder.folder)
+        with ThreadPoolExecutor(1, thread_name_prefix="truth") as early:
+            # The ground truth's texture is made while the camera's worker writes its last
+            # images, on the core the simulation has left, not beside the features.
+            texture = early.submit(truth_texture, {"texture": asdict(recorder.texture_spec)})
+            recorder.flush()  # the camera's worker may still be writing the last images
+            started = time.perf_counter()
+            result = build(recorder.folder, memory=recorder.frame,  # the pixels, not the PNGs
+                           release=recorder.close, texture=texture)
         paths = write(result, log_path.with_suffix(""))
     except (ValueError, OSError) as exc:
         say(f"  mosaic: not made: {exc}")
@@ -42,6 +61,8 @@ def report(stack: Any, log_path: Path, say: Any) -> None:
         say(f"  mosaic: not made: internal error: {type(exc).__name__}: {exc} (a bug; "
             f"'mcl mosaic {log_path}' retries it)")
         return
+    finally:
+        recorder.close()  # the worker, and the images' shared memory
     say(f"  images: {recorder.folder} ({recorder.count})")
     for line in summary_lines(result, paths):
         say("  " + line)

@@ -13,6 +13,7 @@ import io
 import json
 import math
 from dataclasses import dataclass, field
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -57,13 +58,20 @@ class Survey:
     frames: list[Frame]
     wall_x: float = 0.0
     meta: dict[str, Any] = field(default_factory=dict)
+    memory: Callable[[int], Image | None] | None = None  # an image's pixels by its index,
+    # when the run that took them still has them (mcl run: the camera worker's shared memory)
 
     def load(self, frame: Frame) -> Image | None:
-        """The image of ``frame``, decoded from bytes read without following a link and
-        whose PNG header gives the camera's size (else None: a damaged image); :func:`read`
-        checked the files, this checks them again as they are read."""
+        """The image of ``frame``: its pixels from :attr:`memory` if the run still has them,
+        else decoded from bytes read without following a link and whose PNG header gives the
+        camera's size (else None: a damaged image); :func:`read` checked the files, this
+        checks them again as they are read."""
         import cv2
 
+        if self.memory is not None:
+            kept = self.memory(frame.index)
+            if kept is not None:
+                return kept
         data = image_files.read_image(self.folder, frame.file, self.k.width, self.k.height)
         if data is None:
             return None

@@ -8,7 +8,8 @@ data as a prior, rounds of new overlaps), :func:`blend` (the mosaic and the cove
 from __future__ import annotations
 
 import threading
-from concurrent.futures import ThreadPoolExecutor
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -212,11 +213,12 @@ class Blended:
 
 
 def blend(survey: Survey, images: Prepared, poses: FloatArray, size: tuple[float, float],
-          mm_per_px: float, max_pixels: int = 60_000_000) -> Blended:
+          mm_per_px: float, workers: ThreadPoolExecutor | None = None,
+          max_pixels: int = 60_000_000) -> Blended:
     """Every usable image projected at its pose and merged (its memory freed as the mosaic
-    grows); the coverage map with the planned area (widened by an image's ``size``) drawn;
-    ValueError when no image is usable, saying why they were set aside, or when the canvas
-    would have more than ``max_pixels`` pixels."""
+    grows; warped by the ``workers``, added in order); the coverage map with the planned area
+    (widened by an image's ``size``) drawn; ValueError when no image is usable, saying why
+    they were set aside, or when the canvas would have more than ``max_pixels`` pixels."""
     k, usable = survey.k, images.usable
     fw, fh = size
     boxes = [blending.footprint(poses[i], k) for i in range(len(usable)) if usable[i]]
@@ -228,15 +230,45 @@ def blend(survey: Survey, images: Prepared, poses: FloatArray, size: tuple[float
         raise ValueError(_nothing_usable(survey, images.skipped))
     canvas = blending.canvas_for(boxes, mm_per_px, max_pixels=max_pixels)
     blender = blending.Blender(canvas, k)
-    for i, img in enumerate(images.images):
-        if not usable[i]:
-            continue
-        assert img is not None
-        blender.add(img, poses[i])
-        images.images[i] = None  # the memory goes as the mosaic grows
+    add_in_order(blender, images.images, poses, workers)
     coverage = blending.coverage_image(blender.count, canvas,
                                        _plan_drawer(plan, canvas, fw, fh) if plan else None)
     return Blended(blender.mosaic(), coverage, canvas, blender.count)
+
+
+def add_in_order(blender: blending.Blender, images: list[Image | None], poses: FloatArray,
+                    workers: ThreadPoolExecutor | None, ahead: int = 8) -> None:
+    """Warp the images (``ahead`` at a time in the workers) and add them to the blender in
+    their order; each image's memory is freed once it is added."""
+    order = [i for i, img in enumerate(images) if img is not None]
+
+    def warp(i: int) -> blending.Warped | None:
+        img = images[i]
+        assert img is not None
+        return blender.warp(img, poses[i])
+
+    queued: deque[tuple[int, Future[blending.Warped | None]]] = deque()
+    for i in order:
+        if workers is None:
+            warped = warp(i)
+            if warped is not None:
+                blender.accumulate(warped)
+            images[i] = None
+            continue
+        queued.append((i, workers.submit(warp, i)))
+        if len(queued) > ahead:
+            _add_first(blender, images, queued)
+    while queued:
+        _add_first(blender, images, queued)
+
+
+def _add_first(blender: blending.Blender, images: list[Image | None],
+               queued: deque[tuple[int, Future[blending.Warped | None]]]) -> None:
+    i, job = queued.popleft()
+    warped = job.result()
+    if warped is not None:
+        blender.accumulate(warped)
+    images[i] = None  # the memory goes as the mosaic grows
 
 
 def _nothing_usable(survey: Survey, skipped: dict[int, str]) -> str:

@@ -35,6 +35,9 @@ INTERNAL = {
     "mcl.analysis.fleet_replay.ReplayError": "a fleet counterexample the players cannot "
                                              "follow: a bug of the verifier, raised to the "
                                              "test that replays it, never to a user",
+    "vehicle.sensors.image_worker.WorkerError": "the camera's worker failed (an OSError): "
+                                                "mcl run's mosaic report tells it in one line "
+                                                "('mosaic: not made: ...'), the mission runs on",
     "petri.execution.runlog._Refused": "a value json's reader must not take (a duplicate key, "
                                        "a number out of range), caught by the reader of the "
                                        "line and told as a LogError at its line",

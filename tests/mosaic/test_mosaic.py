@@ -3,6 +3,7 @@ registration, global alignment, damaged images, and ``mcl mosaic``. Small images
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -259,3 +260,42 @@ def test_the_written_mosaic_and_coverage_map_carry_the_walls_coordinates(survey:
                 and col - 1 not in lined and col + 1 not in lined)
     rows = [r for r in range(top, top + c.rows) if r not in set(picture["z_lines"].values())]
     assert np.array_equal(mosaic[rows, free], result.mosaic[np.array(rows) - top, free - left])
+
+
+@pytest.mark.parametrize("curvature", [0.0, 0.02])
+def test_the_camera_works_the_wall_out_by_column_as_it_would_pixel_by_pixel(
+        texture: WallTexture, curvature: float) -> None:
+    """render() meets the wall once a column (a ray's horizontal slope is its column's): the
+    images are the same, bit for bit, as with the rays' slopes given for every pixel —
+    the wall filling the view, and seen in part (beyond the visibility, past its edge)."""
+    by_column, by_pixel = WallCamera(texture, curvature), WallCamera(texture, curvature)
+    by_pixel.a_row, by_pixel.b_column = by_pixel.a, by_pixel.b
+    poses = [(-1.5, 1.0, 1.2, 0.0), (-2.0, 2.0, 1.5, 0.3), (-3.8, 1.5, 1.0, 0.6),
+             (-1.0, -0.5, 0.3, -1.2), (-0.5, 2.0, 1.0, 1.45)]
+    ra, rb = np.random.default_rng(4), np.random.default_rng(4)
+    partial = 0
+    for pose in poses:
+        _, _, r = wall_hits(pose, by_pixel.a, by_pixel.b, curvature)
+        partial += not bool((np.isfinite(r) & (r <= by_pixel.visibility)).all())
+        assert np.array_equal(by_column.render(pose, ra), by_pixel.render(pose, rb)), pose
+    assert partial >= 2  # both routes of render() taken
+
+
+@pytest.mark.slow
+def test_the_ground_truth_texture_made_ahead_is_the_one_measured_against(survey: Path) -> None:
+    """mcl run makes the wall's texture while the camera's worker writes its last images and
+    hands it to build(): the figures are those of the texture made inside, and another
+    texture handed in would be measured against (so the one handed in is the one used)."""
+    from concurrent.futures import Future
+
+    def made(spec: TextureSpec) -> Future[WallTexture | None]:
+        done: Future[WallTexture | None] = Future()
+        done.set_result(accuracy.truth_texture({"texture": dataclasses.asdict(spec)}))
+        return done
+
+    inside = build.build(survey, mm_per_px=8.0, compare_without_prior=False)
+    ahead = build.build(survey, mm_per_px=8.0, compare_without_prior=False, texture=made(SPEC))
+    other = build.build(survey, mm_per_px=8.0, compare_without_prior=False,
+                        texture=made(dataclasses.replace(SPEC, seed=8)))
+    assert ahead.figures["mosaic_error_mm"] == inside.figures["mosaic_error_mm"]
+    assert other.figures.get("mosaic_error_mm") != inside.figures["mosaic_error_mm"]

@@ -224,16 +224,22 @@ class Msis:
         self.r = (np.arange(n) + 0.5) * bin_size
         self.schedule = Schedule(self.rate)
         self.beam_count = 0
+        # The same numbers every beam, worked out once: the near-field clutter, the rays
+        # across the beam, the background's noise beyond the first echo and before it.
+        self._near = self.near_level * np.exp(-self.r / (self.near_field / 3.0))
+        self._rays = list(zip(self.offsets.tolist(), self.weights.tolist()))
+        self._sigma = (0.3 * self.background_level / math.sqrt(2.0),
+                       1.0 * self.background_level / math.sqrt(2.0))
 
     def sample(self, t: float, truth: VehicleState, rng: np.random.Generator) -> SonarBeam | None:
         if not self.schedule.due(t):
             return None
         bearing = wrap_angle(self.beam_count * self.step)
         self.beam_count += 1
-        profile = self.near_level * np.exp(-self.r / (self.near_field / 3.0))
         first_echo = math.inf
         origin = (truth.x, truth.y, truth.z)
-        for offset, weight in zip(self.offsets.tolist(), self.weights.tolist()):
+        hits, amplitudes = [], []
+        for offset, weight in self._rays:
             phi = truth.psi + bearing + offset
             c, s = math.cos(phi), math.sin(phi)
             hit = self.env.ray_to_wall(origin, (c, s, 0.0))
@@ -243,13 +249,18 @@ class Msis:
             cos_incidence = c * nx + s * ny
             if cos_incidence < math.cos(self.incidence_limit):
                 continue
-            amplitude = self.wall_level * weight * cos_incidence
-            profile = profile + amplitude * np.exp(-0.5 * ((self.r - hit) / self.bin_size) ** 2)
+            hits.append(hit)
+            amplitudes.append(self.wall_level * weight * cos_incidence)
             first_echo = min(first_echo, hit)
+        profile = self._near
+        if hits:  # each ray's echo added in turn, as one array's rows
+            echoes = np.exp(-0.5 * ((self.r - np.array(hits)[:, None]) / self.bin_size) ** 2)
+            echoes *= np.array(amplitudes)[:, None]
+            for echo in echoes:
+                profile = profile + echo
         k = 1.0 / self.speckle**2  # gamma speckle: mean 1, std self.speckle
         profile = profile * rng.gamma(k, 1.0 / k, self.r.size)
-        sigma = np.where(self.r > first_echo + 3.0 * self.bin_size, 0.3, 1.0)
-        sigma = sigma * self.background_level / math.sqrt(2.0)
+        sigma = np.where(self.r > first_echo + 3.0 * self.bin_size, *self._sigma)
         noise = rng.normal(0.0, 1.0, (2, self.r.size)) * sigma
         bins = np.hypot(profile + noise[0], noise[1])
         bins = np.round(np.clip(bins, 0.0, 1.0) * 255.0) / 255.0  # the head's 8-bit output

@@ -137,7 +137,7 @@ class WallTexture:
         """The texture at wall points (m), bilinear, mirrored beyond its edges."""
         import cv2
 
-        col, row = self.spec.to_pixel(y, z)
+        col, row = np.broadcast_arrays(*self.spec.to_pixel(y, z))  # y or z may be a row
         out = cv2.remap(self.image, col.astype(np.float32), row.astype(np.float32),
                         cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT_101)
         return np.asarray(out, dtype=np.uint8)
