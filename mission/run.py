@@ -67,6 +67,7 @@ from mission.stop_handler import StopWatch, as_record, bound
 from mission.handled import CatchWatch, Handled
 from mission.limits import max_time as time_bound
 from mission.logwriter import LogUnwritable, LogWriter
+from mission.poses import PoseLog, Track
 from mission.vehicle import Answers, Vehicle
 
 if TYPE_CHECKING:
@@ -152,7 +153,8 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
                 waiting: Callable[[str, float], None] | None = None,
                 max_firings_per_instant: int = MAX_FIRINGS_PER_INSTANT,
                 signer: Signer | None = None,
-                sender: Callable[[Order], None] | None = None) -> RunResult:
+                sender: Callable[[Order], None] | None = None,
+                track: Track | None = None) -> RunResult:
     """Run ``compiled`` on ``vehicle`` to its end (the steps: this module's docstring).
 
     ``log``: the run log's path (None: no log); ``header``: what its header says of the run
@@ -170,7 +172,9 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     stops the mission through its abort (a loop that goes round without time passing: the
     end record's how is ``zeno``, exit 4); ``signer``: the key that signs every line of the
     log (:mod:`petri.execution.signing`; None: the log is chained, not signed); ``sender``:
-    where the mission's ``Send`` actions go (a fleet's channel: :mod:`mission.fleet`).
+    where the mission's ``Send`` actions go (a fleet's channel: :mod:`mission.fleet`);
+    ``track``: the vehicle's poses so far, of which the run log takes one a second
+    (:mod:`mission.poses`; None: the log holds no poses).
     Raises :class:`~diagnostics.MclError` when the vehicle cannot run the mission (before
     the first action), :class:`NoVehicle` when no vehicle answered while connecting."""
     limit = time_bound(compiled, max_time)
@@ -192,8 +196,10 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     with contextlib.ExitStack() as held:
         if during is not None:
             held.enter_context(during)
-        opened = (held.enter_context(_open_log(log, about, signer)) if log is not None
-                  else None)
+        poses = (PoseLog(track, lambda: play.clock.origin) if track is not None
+                 else None)
+        opened = (held.enter_context(_open_log(log, about, signer, poses))
+                  if log is not None else None)
         outcome = play.run(opened, observers, limit[0], stop, waiting)
         result = play.result(outcome, end_note, limit, opened)
         if opened is not None:
@@ -213,16 +219,17 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
 
 
 @contextlib.contextmanager
-def _open_log(path: str | Path, about: dict[str, Any], signer: Signer | None = None
-              ) -> Iterator[LogWriter]:
-    """The run log, open (signed by ``signer``, if given), behind its :class:`LogWriter`; one
-    whose header cannot be written is :class:`LogUnwritable`."""
+def _open_log(path: str | Path, about: dict[str, Any], signer: Signer | None = None,
+              poses: PoseLog | None = None) -> Iterator[LogWriter]:
+    """The run log, open (signed by ``signer``, if given), behind its :class:`LogWriter`
+    (which logs ``poses``, if given); one whose header cannot be written is
+    :class:`LogUnwritable`."""
     try:
         log = RunLog(path, about, signer)
     except OSError as exc:
         raise LogUnwritable(path, exc) from None
     try:
-        yield LogWriter(log)
+        yield LogWriter(log, poses)
     finally:
         with contextlib.suppress(OSError):  # what a full disk did not take: said already
             log.close()
