@@ -42,6 +42,7 @@ from mcl.api import Compiled, compile_file, parse_params
 from mcl.fleet import is_fleet
 from mission.exits import Exit
 from mission.limits import mission_bound
+from mission.poses import track_of
 from mission.progress import TaskProgress
 from mission.run import NotVerified, NoVehicle, RunResult, run_mission
 from mission.stop_handler import text as stop_text
@@ -233,7 +234,7 @@ def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicl
             observers=[*watchers, *([] if args.quiet else [_Timeline(
                 compiled, clock, out, getattr(chosen.adapter, "progress", None))])],
             during=stops,
-            waiting=_waiting, signer=signer)
+            waiting=_waiting, signer=signer, track=track_of(chosen))
     except NoVehicle as exc:  # refused before the start: nothing was sent
         print(f"mcl run: {exc}\n  run log: {log_path}", file=sys.stderr)
         return Exit.NO_VEHICLE

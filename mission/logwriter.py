@@ -92,6 +92,11 @@ class LogWriter:
         self.still_there()
         return f"{self.failure}: the run was stopped" if self.failure else None
 
+    def progress(self, t: float, report: dict[str, Any]) -> None:
+        """Log how far along a running task is at ``t`` (mission/progress.py)."""
+        self.poses_until(t)
+        self.write(lambda: self.log.progress(t, **report))
+
     def end(self, t: float, how: str, why: str = "", **more: Any) -> None:
         """Write the end record; kept in :attr:`unwritten` if the log cannot take it."""
         self.poses_until(t)

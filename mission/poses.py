@@ -3,7 +3,8 @@ where the vehicle went (``mcl view``, ``mcl export``).
 
 A simulated vehicle keeps its true track as it goes: the Ictineu's survey
 (vehicle/world/survey.py, 5 poses a second) or paper 003's stacks (``McmStack.track``, 10 a
-second). :func:`track_of` finds it; a :class:`PoseLog` hands the run log one pose every
+second). :func:`track_of` finds it (``mcl run`` and a fleet's run pass it to
+:func:`mission.run_mission`); a :class:`PoseLog` hands the run log one pose every
 :data:`POSE_EVERY` seconds of mission time, each just before the first record at or after its
 time, so that the log's time never goes back (petri/execution/runlog.py's ``pose`` record:
 ``t``, ``x``, ``y``, ``z``, ``yaw``, in the simulation's frame, m and rad). :func:`scene_of`

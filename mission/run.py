@@ -35,6 +35,10 @@ The steps, in order:
    that ends with the core library's ``Fail()`` ends the mission FAIL (exit 1). A bug of ours still writes it (``error``,
    exit 3) before the exception goes on.
 
+The run log also takes, once a minute of mission time, how far along each long task is when
+its vehicle says (``progress`` records: :mod:`mission.progress`), and, when ``track`` is
+given, the vehicle's pose once a second (``pose`` records: :mod:`mission.poses`).
+
 Nothing here is process-wide: no signal handler (``stop`` asks for a stop; ``mcl run`` turns
 signals into it), no printing (``observers`` see every record; the caller prints), no global
 state. Several runs go side by side in one process, one thread each (examples/two_vehicles.py).
@@ -68,6 +72,7 @@ from mission.handled import CatchWatch, Handled
 from mission.limits import max_time as time_bound
 from mission.logwriter import LogUnwritable, LogWriter
 from mission.poses import PoseLog, Track
+from mission.progress import ProgressLog
 from mission.vehicle import Answers, Vehicle
 
 if TYPE_CHECKING:
@@ -304,6 +309,9 @@ class _Play:
                         vehicle_time=self.clock.vehicle,
                         progress=getattr(chosen.adapter, "progress", None))))
                 player.observers.extend(observers)
+                told = getattr(chosen.adapter, "progress", None)
+                if opened is not None and callable(told):  # long tasks' progress, logged
+                    player.observers.append(ProgressLog(player.net, told, opened.progress))
                 # an observer with a tick(t) is told the mission time at every round
                 rounds = [tick for o in player.observers
                           if callable(tick := getattr(o, "tick", None))]

@@ -55,6 +55,7 @@ FIELDS: dict[str, dict[str, type | tuple[type, ...]]] = {
     "cleanup": {"behaviours": list},
     "end": {"how": str, "why": str},
     "pose": {"x": (int, float), "y": (int, float), "z": (int, float)},  # not played
+    "progress": {"task": str, "progress": dict},  # not played
 }
 NUMBER = (int, float)
 # Fields a record may carry, checked when it does (a library caller's end record may say less).
@@ -173,7 +174,7 @@ class Replay:
     def step(self, r: dict[str, Any]) -> str | None:
         """Play one record."""
         kind, now = r["kind"], float(r.get("t", 0.0))
-        if kind == "pose":  # where the vehicle was: nothing the player did
+        if kind in ("pose", "progress"):  # what the vehicle said: nothing the player did
             return None
         if kind == "status":
             self.last_status = str(r.get("status"))

@@ -75,8 +75,12 @@ function statesAt(t) {
 
 function trackView(points) {
   // the wall seen from the vehicle (along-wall y, depth z down) when the track keeps close to
-  // a wall plane, else the plan (x east, y north up)
-  const span = (i) => Math.max(...points.map((p) => p[i])) - Math.min(...points.map((p) => p[i]));
+  // a wall plane, else the plan (x east, y north up); the spans leave out the first and last
+  // twentieth of each coordinate's values (the way to the wall and back is not the survey)
+  const span = (i) => {
+    const v = points.map((p) => p[i]).sort((a, b) => a - b);
+    return v[Math.floor(0.95 * (v.length - 1))] - v[Math.floor(0.05 * (v.length - 1))];
+  };
   return span(1) < 0.25 * span(2) ? {h: 2, v: 3, down: true, names: ["along the wall y (m)", "depth z (m)"]}
                                   : {h: 1, v: 2, down: false, names: ["x (m)", "y (m)"]};
 }
