@@ -152,7 +152,9 @@ function renderPlan(t) {
   const label = svgEl("text", {x: "4", y: String(height + 15), "font-size": "12"});
   label.textContent = `x (m) ${x0.toFixed(1)} to ${x1.toFixed(1)}; y (m) ${y0.toFixed(1)} to ` +
     `${y1.toFixed(1)} (${[...new Set(Object.values(data.tracks_from || {}).filter((s) => s))].join("; ")})` +
-    [...Object.keys(scene.lines), ...Object.keys(scene.points)].map((n) => `; ${n}`).join("");
+    [...Object.keys(scene.lines).map((n) => `; ${n}: brown line`),
+     ...Object.entries(scene.points).map(([n, pts]) =>
+       `; ${n}: ${n === "mine" ? "black" : "grey"} dot${pts.length === 1 ? "" : "s"}`)].join("");
   svg.append(label);
   box.replaceChildren(svg);
 }
