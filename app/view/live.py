@@ -1,6 +1,8 @@
 """``mcl view --zenoh ENDPOINT``: the page of a run as it happens, fed by the mission status
 the player publishes (``mcl/<v>/mission/status``, docs/ZENOH.md) and both sides' liveliness
-tokens, read as ``mcl monitor`` reads them (an observer: it sends nothing).
+tokens, read as ``mcl monitor`` reads them (an observer: it sends nothing). ``mcl run
+--view`` feeds the same :class:`LiveRun` in the player's own process, with the same status
+dicts (:meth:`LiveRun.take_status`) and the vehicle's poses (app/view/run_view.py).
 
 Each status names the state of every block started so far (``blocks``, mission/blocks.py); a
 change from the status before is a change on the page, at the status's mission time. Its
@@ -49,13 +51,20 @@ class LiveRun:
         self.clock: float | None = None  # the vehicle's clock, as its telemetry last said
         self.running: list[dict[str, Any]] = []  # the last status's running tasks
         self.refused = ""  # why the vehicle refused this observer's session ("": it did not)
+        self.track_from = "the navigator's estimate"  # what the track's points are
 
     def on_status(self, payload: bytes) -> None:
-        """A status as the player published it (ill-formed ones are dropped)."""
+        """A status as the player published it over Zenoh (ill-formed ones are dropped)."""
         try:
             status = json.loads(payload)
         except ValueError:
             return
+        self.take_status(status)
+
+    def take_status(self, status: Any) -> None:
+        """A status as the player's observer made it (petri/execution/status.py, with its
+        ``blocks``): over Zenoh, or in the player's own process (``mcl run --view``,
+        app/view/run_view.py); ill-formed ones are dropped."""
         if not isinstance(status, dict) or status.get("v") != 1 or \
                 not isinstance(status.get("blocks", {}), dict):
             return
@@ -104,6 +113,11 @@ class LiveRun:
             point = [float(nav[k]) for k in ("t", "x", "y", "z")]
         except (ValueError, TypeError, KeyError):
             return
+        self.take_position(point)
+
+    def take_position(self, point: list[float]) -> None:
+        """One point of the track, ``[t, x, y, z]`` on the vehicle's clock (non-finite ones
+        are dropped)."""
         if not all(math.isfinite(v) for v in point):
             return
         with self.lock:
@@ -117,6 +131,10 @@ class LiveRun:
             t = float(json.loads(payload)["t"])
         except (ValueError, TypeError, KeyError):
             return
+        self.take_clock(t)
+
+    def take_clock(self, t: float) -> None:
+        """The vehicle's clock now (a non-finite one is dropped)."""
         if math.isfinite(t):
             with self.lock:
                 self.clock = t
@@ -130,8 +148,12 @@ class LiveRun:
 
     def on_alive(self, key: str, present: bool) -> None:
         if key.endswith("/alive/vehicle"):
-            with self.lock:
-                self.vehicle_alive = present
+            self.seen_alive(present)
+
+    def seen_alive(self, present: bool) -> None:
+        """Whether the vehicle is there (its liveliness token, or its link)."""
+        with self.lock:
+            self.vehicle_alive = present
 
     def data(self) -> dict[str, Any]:
         """The page's data now."""
@@ -152,7 +174,7 @@ class LiveRun:
             return {**self.base, "changes": list(self.changes), "progress": progress,
                     "timeline": list(self.timeline), "end": {"t": now, "status": ended},
                     "live": True, "link": link, "track": track,
-                    "track_from": "the navigator's estimate" if track else ""}
+                    "track_from": self.track_from if track else ""}
 
 
 def follow(live: LiveRun, endpoint: str, security: Any, stop: threading.Event,
