@@ -285,8 +285,10 @@ async function poll() {  // a live run: the server keeps data.json up to date
     render();
     show(follow || !data.live ? data.end.t : Number(document.getElementById("time").value));
     document.getElementById("live").textContent = data.live ? `live: ${data.link}` : "";
-  } catch (err) {
-    document.getElementById("live").textContent = `live: no answer (${err})`;
+  } catch (err) {  // once a run has ended, its server may stop (mcl run --view)
+    document.getElementById("live").textContent = data.end.status
+      ? `live: no answer: the run ended ${data.end.status.toUpperCase()} and its server has stopped`
+      : `live: no answer (${err})`;
   }
   setTimeout(poll, 1000);
 }

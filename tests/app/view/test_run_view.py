@@ -8,6 +8,7 @@ signal; bad options, one line and exit 2 before the mission starts."""
 
 from __future__ import annotations
 
+import base64
 import json
 import math
 import re
@@ -227,7 +228,13 @@ def test_a_simulated_run_followed_in_the_browser(tmp_path: Path) -> None:
         assert "ended OK" in summary, summary
         live = browser.until("document.getElementById('live').textContent",
                              lambda v: "no answer" in v, budget(10))
-        assert "no answer" in live  # and found nothing there afterwards
+        assert live == "live: no answer: the run ended OK and its server has stopped", live
+        browser.call("Emulation.setDeviceMetricsOverride", width=1400, height=1000,
+                     deviceScaleFactor=1, mobile=False)
+        shot = tmp_path / "mcl-run-view.png"  # kept as the test's artefact
+        shot.write_bytes(base64.b64decode(browser.call("Page.captureScreenshot")["data"]))
+        assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 20_000
+        print(f"screenshot: {shot}")
     finally:
         browser.close()
 
