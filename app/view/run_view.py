@@ -9,8 +9,9 @@ status feed's place (mission/vehicle.py's ``StatusFeed``, which makes ``run_miss
 the status) and hands each status to the page, and on to the vehicle's own feed when it has
 one (a Zenoh vehicle's observers, ``mcl monitor``, still get theirs). The track is the
 vehicle's poses where it gives them, looked at every :data:`FOLLOW_EVERY` s: a simulated
-vehicle's true track (mission/poses.py, as its run log holds it), a MAVLink vehicle's own
-position (LOCAL_POSITION_NED); a scripted or Zenoh vehicle gives none here.
+vehicle's true track (mission/poses.py, as its run log holds it), a remote vehicle's own
+position as its adapter last heard it (``pose()``: a MAVLink vehicle's LOCAL_POSITION_NED, a
+Zenoh vehicle's navigator telemetry); a scripted vehicle gives none.
 
 The server starts before the mission (a port it cannot serve on is refused then: one line,
 exit 2) and stops when the run ends, however it ends; a page open then (it polls once a

@@ -2,9 +2,10 @@
 by the run's own process, fed in process with the statuses the player would publish over
 Zenoh, on any vehicle. End to end: a simulated run at wall-clock speed followed by a page open
 in headless Chromium (through its DevTools protocol, so that the same page is read during the
-run and after the server has stopped), and a run on a MAVLink vehicle (``mcl vehicle
---mavlink``, a simulated ArduSub-class peer over UDP) followed through ``data.json``; a
-signal; bad options, one line and exit 2 before the mission starts."""
+run and after the server has stopped); runs on a MAVLink vehicle (``mcl vehicle --mavlink``,
+a simulated ArduSub-class peer over UDP) and on a Zenoh vehicle (``mcl vehicle --zenoh``)
+followed through ``data.json``; a signal; bad options, one line and exit 2 before the mission
+starts."""
 
 from __future__ import annotations
 
@@ -240,30 +241,39 @@ def test_a_simulated_run_followed_in_the_browser(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_a_run_on_a_mavlink_vehicle_is_followed_with_its_track(tmp_path: Path) -> None:
-    port = free_udp_port()
+@pytest.mark.parametrize("kind", ["mavlink", "zenoh"])
+def test_a_run_on_a_remote_vehicle_is_followed_with_its_track(tmp_path: Path,
+                                                              kind: str) -> None:
+    """A MAVLink vehicle's own position (LOCAL_POSITION_NED), a Zenoh vehicle's navigator
+    telemetry: the track of the page served by ``mcl run``, whatever the vehicle."""
+    if kind == "zenoh":
+        pytest.importorskip("zenoh")
+        where = f"tcp/127.0.0.1:{free_tcp_port()}"
+        served, reached = ["--zenoh", where], f"zenoh:{where}"
+    else:
+        port = free_udp_port()
+        served = ["--mavlink", f"udpout:127.0.0.1:{port}", "--gcs-timeout", "600",
+                  "--pilot-timeout", "600"]
+        reached = f"mavlink:udpin:127.0.0.1:{port}"
     vout = tmp_path / "vehicle.out"
     with open(vout, "wb") as out:
-        vehicle = subprocess.Popen(
-            [str(BIN / "mcl"), "vehicle", "--mavlink", f"udpout:127.0.0.1:{port}", "--speed",
-             "4", "--gcs-timeout", "600", "--pilot-timeout", "600"], cwd=REPO,
-            env=subprocess_env(), stdin=subprocess.DEVNULL, stdout=out,
-            stderr=subprocess.STDOUT)
+        vehicle = subprocess.Popen([str(BIN / "mcl"), "vehicle", *served, "--speed", "4"],
+                                   cwd=REPO, env=subprocess_env(), stdin=subprocess.DEVNULL,
+                                   stdout=out, stderr=subprocess.STDOUT)
     try:
         deadline = time.monotonic() + budget(20)
         while "ready" not in vout.read_text() and time.monotonic() < deadline:
             assert vehicle.poll() is None, vout.read_text()
             time.sleep(0.05)
         mission = write(tmp_path, "MISSION {\n    GoTo((-1.5, 0, 1, 0 deg))\n}\n", "goto.mcl")
-        with run_with_view(tmp_path, mission, "--vehicle",
-                           f"mavlink:udpin:127.0.0.1:{port}") as (proc, url, said):
+        with run_with_view(tmp_path, mission, "--vehicle", reached) as (proc, url, said):
             seen = [until_running(proc, url, said, budget(30))]
             while (data := fetch(url)) is not None:  # a page open: it gets the end first
                 seen.append(data)
                 time.sleep(0.1)
             proc.wait(timeout=budget(30))
         assert proc.returncode == 0, said.read_text()
-        link = f"vehicle mavlink @ mavlink:udpin:127.0.0.1:{port}: alive"
+        link = f"vehicle {kind} @ {reached}: alive"
         assert any(d["link"] == link for d in seen), seen[0]["link"]
         last = seen[-1]
         assert last["end"]["status"] == "ok" and states(last)["task@2:5"] == "ok"
