@@ -291,17 +291,46 @@ def test_a_run_on_a_remote_vehicle_is_followed_with_its_track(tmp_path: Path,
 
 
 @pytest.mark.slow
-def test_a_signal_stops_the_run_and_its_view_with_the_runs_exit_status(
-        tmp_path: Path) -> None:
+@pytest.mark.parametrize("stop, status", [("signal", 128 + signal.SIGTERM),
+                                          ("limit", 4)])
+def test_a_stop_ends_the_run_and_its_view_with_the_runs_exit_status(
+        tmp_path: Path, stop: str, status: int) -> None:
     mission = write(tmp_path, GOTO_WAIT, "goto_wait.mcl")
-    with run_with_view(tmp_path, mission, "--realtime", "--no-images") as (proc, url, said):
-        until_running(proc, url, said, budget(20))
-        proc.send_signal(signal.SIGTERM)
+    limit = ["--max-time", "2"] if stop == "limit" else []
+    with run_with_view(tmp_path, mission, "--realtime", "--no-images", *limit) as (
+            proc, url, said):
+        seen = [until_running(proc, url, said, budget(20))]
+        if stop == "signal":
+            proc.send_signal(signal.SIGTERM)
+        while (data := fetch(url)) is not None:  # a page open: it gets the end first
+            seen.append(data)
+            time.sleep(0.1)
         proc.wait(timeout=budget(30))
-    assert proc.returncode == 128 + signal.SIGTERM, said.read_text()
+    assert proc.returncode == status, said.read_text()
     assert refused(url)
+    assert seen[-1]["end"]["status"] == "fail"  # the mission aborted through its net
+    assert "aborted" in states(seen[-1]).values(), states(seen[-1])
     last = json.loads((tmp_path / "run.jsonl").read_text().splitlines()[-1])
-    assert last["kind"] == "end" and last["exit"] == 128 + signal.SIGTERM
+    assert last["kind"] == "end" and last["exit"] == status
+
+
+def test_a_mission_the_vehicle_cannot_run_ends_the_view_too(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    library = write(tmp_path, "behaviour GoTo drives x, y, z, yaw events reached, failed;\n"
+                              "task Fast(target: point) {\n"
+                              "    start:   enable GoTo(x = target.x, speed = 3);\n"
+                              "    ok:      GoTo.reached;\n"
+                              "    timeout: 1 min -> fail;\n"
+                              "    stop:    disable GoTo;\n"
+                              "}\n", "fast.tasks")
+    mission = write(tmp_path, "MISSION {\n    Fast((0, 0, 1, 0 deg))\n}\n")
+    port = free_tcp_port()
+    code = mcl_run([str(mission), "--tasks", str(library), "--view", f"127.0.0.1:{port}",
+                    "--log", str(tmp_path / "run.jsonl")])
+    err = capsys.readouterr().err
+    assert code == 2 and "does not take" in err, err  # refused by run_mission: an exception
+    assert f"serving the view at http://127.0.0.1:{port}/" in err
+    assert refused(f"http://127.0.0.1:{port}/")  # its server stopped all the same
 
 
 # -- bad options: one line, exit 2, before the mission starts ----------------------------------
