@@ -30,7 +30,7 @@ from mcl import parser, tasklib
 from mission.exits import Exit
 from mission.channels import RECORD_FORMAT
 from mission.fleet_evidence import read_record
-from mission.mcap_channels import channel_messages, fleet_metadata
+from mission.mcap_channels import channel_messages, fleet_metadata, track_of_poses
 from mission.mcap_export import Run, Shared, Track, Written, camera_index, write_fleet
 from mosaic.images import images_folder
 from petri.execution.replay import malformed
@@ -141,7 +141,19 @@ def _run(log: Path, images: bool) -> Run:
         raise LogError(f"{log}:{wrong.line}: {wrong.reason}", wrong.line, wrong.reason,
                        path=log, invalid=True)
     pictures, indexed = camera_index(images_folder(log))
+    if not indexed.truth:  # no camera: the poses the log holds (a fleet's run)
+        indexed = logged_track(records)
     return Run(records, indexed, pictures if images else [], attachments(records[0], log))
+
+
+def logged_track(records: list[dict[str, Any]]) -> Track:
+    """The true poses a run log holds (its ``pose`` records), the dam wall drawn when its
+    header's scene has one (mission/poses.py)."""
+    track = track_of_poses((float(r["t"]), float(r["x"]), float(r["y"]), float(r["z"]),
+                            float(r.get("yaw", 0.0))) for r in records if r["kind"] == "pose")
+    scene = records[0].get("scene")
+    track.plane = isinstance(scene, dict) and "dam wall" in (scene.get("lines") or {})
+    return track
 
 
 def _written(out: Path, runs: list[Run], shared: Shared | None = None) -> Written:

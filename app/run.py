@@ -20,7 +20,8 @@ at ADDRESS within N s"), exit 6. A stop from outside (a signal, the time limit, 
 ``Link.lost``) runs the mission's ``ON STOP`` handler, if it has one, for at most its proved
 bound; a second signal halts it. The summary says how it went (``stop handler (ON STOP) ended
 ok at 131.2 s, started at 102.0 s (proved bound 300 s)``). ``--mcap`` and ``--foxglove``, the
-run for Foxglove written at its end and served live: ``app/foxglove.py`` (docs/MCAP.md).
+run for Foxglove written at its end and served live: ``app/foxglove.py`` (docs/MCAP.md);
+``--view HOST:PORT``, mcl view's page of the run served live: ``app/view/run_view.py``.
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ from mcl.api import Compiled, compile_file, parse_params
 from mcl.fleet import is_fleet
 from mission.exits import Exit
 from mission.limits import mission_bound
+from mission.poses import track_of
 from mission.progress import TaskProgress
 from mission.run import NotVerified, NoVehicle, RunResult, run_mission
 from mission.stop_handler import text as stop_text
@@ -57,6 +59,8 @@ from app.safe_exit import Output, ReportCut, Stops
 
 if TYPE_CHECKING:
     from vehicle.control.stack import IctineuStack
+
+    from app.view.run_view import RunView
 
 STOP_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
 
@@ -94,6 +98,10 @@ def _parser() -> tuple[argparse.ArgumentParser, vehicles.Owned]:
                    help="serve the run live to Foxglove (its WebSocket protocol, "
                         "foxglove.sdk.v1): the log, each task's state, the vehicle's poses; "
                         "needs the optional extra mcl-auv[foxglove] (docs/MCAP.md)")
+    r.add_argument("--view", metavar="HOST:PORT", default=None, type=foxglove.address,
+                   help="serve mcl view's page of the run while it goes on, from this "
+                        "process, on any vehicle (e.g. 127.0.0.1:8080; port 0: a free one); "
+                        "it stops when the run ends (README, 'mcl view')")
     r.add_argument("--quiet", action="store_true", help="no timeline, only the final status")
     r.add_argument("--no-images", action="store_true",
                    help="simulated vehicle: do not render and keep the camera's images, so no "
@@ -171,6 +179,10 @@ def _param_texts(overrides: dict[str, Any]) -> dict[str, str]:
 
 def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
     if is_fleet(args.mission):  # several vehicles and their channels: app/fleet_run.py
+        if args.view is not None:
+            raise file_error("--view", "--view: not for a fleet (one mission's run only)",
+                             "follow a fleet's run with mcl view FLEET.mcl --fleet-vehicle "
+                             "NAME=ENDPOINT ...", "fleet-option")
         if args.log_dir:
             _check_log(Path(args.log_dir) / "channels.jsonl", "--log-dir")
         signer = Signer.load(args.log_key) if args.log_key is not None else None
@@ -209,12 +221,23 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
               "vehicle": args.vehicle, "seed": args.seed, "inject": args.inject}
     clock = MissionClock()
     out = Output()
-    live = foxglove.serve(args.foxglove, compiled, chosen.stack, header)
+    view = _view(args, compiled, chosen)  # before Foxglove's: a refusal leaves nothing open
+    try:
+        live = foxglove.serve(args.foxglove, compiled, chosen.stack, header)
+    except BaseException:
+        if view is not None:
+            view.close()
+        raise
     stops = Stops(STOP_SIGNALS)
     try:
         return _run_and_report(args, compiled, chosen, log_path, header, clock, out, stops,
                                signer, [live] if live is not None else [])
     finally:
+        try:
+            if view is not None:  # an open page sees the end first (app/view/run_view.py)
+                view.close()
+        except ReportCut as cut:  # a signal while it waited: the server stopped all the same
+            _warn(cut.line())
         stops.restore()
         if live is not None:
             live.close(chosen.stack.survey if chosen.stack is not None else None)
@@ -222,6 +245,17 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
             from mosaic.hook import detach  # here for start-up speed, as attach
 
             detach(chosen.stack)  # the camera's worker process ends with the run, always
+
+
+def _view(args: argparse.Namespace, compiled: Compiled, chosen: Vehicle) -> RunView | None:
+    """``--view``: mcl view's page of the run, served from now on (None without it)."""
+    if args.view is None:
+        return None
+    from app.view.run_view import RunView  # here for start-up speed: only --view needs it
+
+    view = RunView(args.view, compiled, chosen, args.vehicle.partition(":")[0])
+    print(f"mcl run: serving the view at {view.url}", file=sys.stderr, flush=True)
+    return view
 
 
 def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicle,
@@ -237,7 +271,7 @@ def _run_and_report(args: argparse.Namespace, compiled: Compiled, chosen: Vehicl
             observers=[*watchers, *([] if args.quiet else [_Timeline(
                 compiled, clock, out, getattr(chosen.adapter, "progress", None))])],
             during=stops,
-            waiting=_waiting, signer=signer)
+            waiting=_waiting, signer=signer, track=track_of(chosen))
     except NoVehicle as exc:  # refused before the start: nothing was sent
         print(f"mcl run: {exc}\n  run log: {log_path}", file=sys.stderr)
         return Exit.NO_VEHICLE

@@ -21,6 +21,7 @@ from petri.execution.player import Record
 
 from mission.exits import SIGNAL_BASE, Exit
 from mission.handled import CatchWatch
+from mission.poses import is_scene
 
 # how an end record says the run ended -> the exit statuses it may go with (mission/run.py)
 HOW_EXITS: dict[str, frozenset[int]] = {
@@ -89,6 +90,7 @@ HEADER: dict[str, tuple[bool, str, Callable[[Any], bool]]] = {
     "fleet": (False, "the fleet's name", lambda v: isinstance(v, str)),  # mission/fleet.py
     "as": (False, "the vehicle's name in its fleet", lambda v: isinstance(v, str)),
     "fleet_seed": (False, "the fleet's seed, from 0 to 2**64 - 1", lambda v: _seed(v)),
+    "scene": (False, "the scene (lines and points of [x, y]: mission/poses.py)", is_scene),
 }
 
 

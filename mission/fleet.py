@@ -23,6 +23,9 @@ at a vehicle reaches its player as the event ``CHANNEL.MESSAGE`` with data ``{**
 "sent": t}``, and its vehicle's modem, if it has one, hears it. Acoustic silence is not
 ``Link.lost``.
 
+Each vehicle's run log holds its simulated vehicle's true pose once a second and its header
+the scene it moved in (:mod:`mission.poses`), so that the logs alone draw the fleet's tracks.
+
 Every exit is a safe exit for every vehicle: a stop from outside (``stop``: a signal) stops
 all, each through its mission's abort; a vehicle whose run fails (its vehicle raised, a bug)
 stops the others (their end records say ``how: "fleet"`` and which vehicle); each vehicle's
@@ -60,6 +63,7 @@ from mission.channels import (
 )
 from mission.exits import Exit
 from mission.logwriter import LogUnwritable
+from mission.poses import scene_of, track_of
 from mission.run import NotVerified, RunResult, Stop, run_mission
 from mission.vehicle import Vehicle
 
@@ -398,9 +402,12 @@ def run_vehicle(name: str, fleet: CompiledFleet, vehicle: Vehicle, clock: Shared
     wrapped = Vehicle(adapter, stack=vehicle.stack, declares=None, link=vehicle.link,
                       status=vehicle.status, summary=vehicle.summary, where=vehicle.where,
                       modem=vehicle.modem)
-    about = {**(header or {}), "fleet": fleet.name, "as": name}
+    scene = scene_of(vehicle)  # what it moves in, and its poses: mcl view's plan
+    about = {**(header or {}), "fleet": fleet.name, "as": name,
+             **({"scene": scene} if scene is not None else {})}
     log = folder / f"{name}.jsonl" if folder is not None else None
     return run_mission(fleet.vehicles[name], wrapped, log=log, header=about,
                        max_time=max_time, stop=stops.request, verify=False,
-                       observers=(observers or {}).get(name, []), signer=signer, sender=send)
+                       observers=(observers or {}).get(name, []), signer=signer, sender=send,
+                       track=track_of(vehicle))
 

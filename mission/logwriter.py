@@ -6,6 +6,8 @@
   run (its folder deleted) is kept as the run's :attr:`~LogWriter.failure`; nothing more is
   written, and :meth:`~LogWriter.stop` asks the runner to stop the mission through its abort
   (``how: "log failed"``, exit 4), so that everything is switched off and confirmed;
+- the vehicle's poses, when the run keeps them (:class:`mission.poses.PoseLog`), go in just
+  before the first record at or after their time, so that the log's time never goes back;
 - the end record that cannot be written is kept (:attr:`~LogWriter.unwritten`), for the caller
   to put where it still can (``mcl run`` prints it on standard error: its stand-in).
 
@@ -21,6 +23,8 @@ from typing import Any
 from diagnostics import MclError, Span
 from petri.execution.player import Record
 from petri.execution.runlog import END, RunLog
+
+from mission.poses import PoseLog
 
 
 class LogUnwritable(MclError):
@@ -48,15 +52,23 @@ class LogWriter:
     """An observer of the player that writes each record to the run log and, if the log
     cannot be written, remembers why instead of raising (the runner then stops the run)."""
 
-    def __init__(self, log: RunLog):
+    def __init__(self, log: RunLog, poses: PoseLog | None = None):
         self.log = log
+        self.poses = poses  # the vehicle's poses still to log (None: the run keeps none)
         self.path = log.path
         self.file = identity(log.path)  # what a record is written to; a regular file only
         self.failure = ""  # why the log could not be written (the first failure)
         self.unwritten: dict[str, Any] | None = None  # the end record the log did not take
 
     def __call__(self, record: Record) -> None:
+        self.poses_until(record.t)
         self.write(lambda: self.log(record))
+
+    def poses_until(self, t: float) -> None:
+        """Log the vehicle's poses up to mission time ``t`` (before a record at ``t``)."""
+        if self.poses is not None and not self.failure:
+            for pose in self.poses.until(t):
+                self.write(lambda p=pose: self.log.pose(**p))
 
     def write(self, writing: Any) -> None:
         if self.failure:
@@ -80,8 +92,14 @@ class LogWriter:
         self.still_there()
         return f"{self.failure}: the run was stopped" if self.failure else None
 
+    def progress(self, t: float, report: dict[str, Any]) -> None:
+        """Log how far along a running task is at ``t`` (mission/progress.py)."""
+        self.poses_until(t)
+        self.write(lambda: self.log.progress(t, **report))
+
     def end(self, t: float, how: str, why: str = "", **more: Any) -> None:
         """Write the end record; kept in :attr:`unwritten` if the log cannot take it."""
+        self.poses_until(t)
         self.write(lambda: self.log.end(t, how, why, **more))
         if self.failure:
             self.unwritten = {"t": round(t, 6), "kind": END, "how": how, "why": why, **more}

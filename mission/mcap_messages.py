@@ -3,7 +3,9 @@
 Each record of the run log (petri/execution/runlog.py) becomes one ``foxglove.Log`` message
 on ``/mission/log`` with the MCL ``file`` and ``line`` it comes from: an action (the line of its
 task call), an event (the line of the firing it caused, which follows it; else 0), a
-firing (its line), a status change, a note, the player's cleanup and the end record. Every
+firing (its line), a status change, a note, the player's cleanup, a long task's progress
+(its task call's line), the vehicle's pose (a debug line; its track's messages:
+mission/mcap_export.py) and the end record. Every
 change of a task call's state (waiting, running, ok, fail, aborted, read from the firings of
 its transitions) gives a ``mcl.MissionStatus`` message on ``/mission/status`` with every task
 call's state, for Foxglove's State Transitions panel.
@@ -97,7 +99,11 @@ class LogMessages:
         yield from messages.flush()
 
     def feed(self, r: dict[str, Any]) -> list[Message]:
-        """The messages of one record (``t``, ``kind`` and its fields)."""
+        """The messages of one record (``t``, ``kind`` and its fields); a pose says where
+        the vehicle was, a debug line that leaves a waiting event waiting (its firing
+        follows)."""
+        if r["kind"] == "pose":
+            return [self.log(float(r["t"]), *said(r))]
         out = self.flush(r)
         t = float(r["t"])
         if r["kind"] == "event":
@@ -160,6 +166,16 @@ def said(r: dict[str, Any]) -> tuple[int, str, int, str]:
     if kind == "cleanup":
         return (WARNING, "player", 0,
                 f"cleanup: switching off {', '.join(map(str, r.get('behaviours') or []))}")
+    if kind == "progress":
+        told = r.get("progress") or {}
+        text = ", ".join(f"{k} {v}" for k, v in told.items())
+        if isinstance(r.get("left"), (int, float)) and isinstance(r.get("bound"), (int, float)):
+            text += f"; {r['left']:g} s left of {r['bound']:g} s"
+        task = str(r.get("task", ""))
+        return INFO, task, call_line(task), f"progress: {text}"
+    if kind == "pose":
+        return (DEBUG, "vehicle", 0, "pose x={x} m, y={y} m, z={z} m, yaw={yaw} rad".format(
+            **{k: r.get(k) for k in ("x", "y", "z", "yaw")}))
     if kind == "end":
         level = INFO if r.get("exit") == 0 else ERROR
         return (level, "mission", 0,

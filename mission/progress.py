@@ -5,7 +5,9 @@ vehicle adapter's ``progress()`` gives it).
 
 :class:`TaskProgress` is a player observer that needs only the net and the records (not the
 player): ``mcl run``'s timeline prints its report at a bounded rate, so that a long survey
-shows its progress between its start and its end. The running tasks are those whose block
+shows its progress between its start and its end; :class:`ProgressLog` writes it into the
+run log once a minute (``progress`` records), so that a finished run's view and MCAP file
+show it too. The running tasks are those whose block
 has started and not ended (mission/blocks.py); a task's behaviours are those its actions
 enabled and did not disable.
 """
@@ -72,3 +74,33 @@ class TaskProgress:
                     entry["progress"] = told[behaviour]
             out.append(entry)
         return out
+
+
+PROGRESS_EVERY = 60.0  # mission s between two progress records of a long task
+
+
+class ProgressLog:
+    """A player observer told the mission time every round (``tick``): every
+    :data:`PROGRESS_EVERY` s of mission time, each task that has run that long and whose
+    behaviours say how far along they are, as :meth:`TaskProgress.report` gives it, goes to
+    ``write(t, report)`` (the run log's :meth:`~mission.logwriter.LogWriter.progress`)."""
+
+    def __init__(self, net: Net, progress: Callable[[], dict[str, Any]],
+                 write: Callable[[float, dict[str, Any]], None],
+                 every: float = PROGRESS_EVERY) -> None:
+        self.tasks = TaskProgress(net, progress)
+        self.write, self.every = write, every
+        self.last = 0.0  # mission time of the last report written
+
+    def __call__(self, record: Record) -> None:
+        self.tasks(record)
+
+    def tick(self, t: float) -> None:
+        if t - self.last < self.every:
+            return
+        long = [r for r in self.tasks.report(t)
+                if t - r["since"] >= self.every and "progress" in r]
+        if long:
+            self.last = t
+        for report in long:
+            self.write(t, report)

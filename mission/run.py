@@ -35,6 +35,10 @@ The steps, in order:
    that ends with the core library's ``Fail()`` ends the mission FAIL (exit 1). A bug of ours still writes it (``error``,
    exit 3) before the exception goes on.
 
+The run log also takes, once a minute of mission time, how far along each long task is when
+its vehicle says (``progress`` records: :mod:`mission.progress`), and, when ``track`` is
+given, the vehicle's pose once a second (``pose`` records: :mod:`mission.poses`).
+
 Nothing here is process-wide: no signal handler (``stop`` asks for a stop; ``mcl run`` turns
 signals into it), no printing (``observers`` see every record; the caller prints), no global
 state. Several runs go side by side in one process, one thread each (examples/two_vehicles.py).
@@ -67,6 +71,8 @@ from mission.stop_handler import StopWatch, as_record, bound
 from mission.handled import CatchWatch, Handled
 from mission.limits import max_time as time_bound
 from mission.logwriter import LogUnwritable, LogWriter
+from mission.poses import PoseLog, Track
+from mission.progress import ProgressLog
 from mission.vehicle import Answers, Vehicle
 
 if TYPE_CHECKING:
@@ -152,7 +158,8 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
                 waiting: Callable[[str, float], None] | None = None,
                 max_firings_per_instant: int = MAX_FIRINGS_PER_INSTANT,
                 signer: Signer | None = None,
-                sender: Callable[[Order], None] | None = None) -> RunResult:
+                sender: Callable[[Order], None] | None = None,
+                track: Track | None = None) -> RunResult:
     """Run ``compiled`` on ``vehicle`` to its end (the steps: this module's docstring).
 
     ``log``: the run log's path (None: no log); ``header``: what its header says of the run
@@ -170,7 +177,9 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     stops the mission through its abort (a loop that goes round without time passing: the
     end record's how is ``zeno``, exit 4); ``signer``: the key that signs every line of the
     log (:mod:`petri.execution.signing`; None: the log is chained, not signed); ``sender``:
-    where the mission's ``Send`` actions go (a fleet's channel: :mod:`mission.fleet`).
+    where the mission's ``Send`` actions go (a fleet's channel: :mod:`mission.fleet`);
+    ``track``: the vehicle's poses so far, of which the run log takes one a second
+    (:mod:`mission.poses`; None: the log holds no poses).
     Raises :class:`~diagnostics.MclError` when the vehicle cannot run the mission (before
     the first action), :class:`NoVehicle` when no vehicle answered while connecting."""
     limit = time_bound(compiled, max_time)
@@ -192,8 +201,10 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
     with contextlib.ExitStack() as held:
         if during is not None:
             held.enter_context(during)
-        opened = (held.enter_context(_open_log(log, about, signer)) if log is not None
-                  else None)
+        poses = (PoseLog(track, lambda: play.clock.origin) if track is not None
+                 else None)
+        opened = (held.enter_context(_open_log(log, about, signer, poses))
+                  if log is not None else None)
         outcome = play.run(opened, observers, limit[0], stop, waiting)
         result = play.result(outcome, end_note, limit, opened)
         if opened is not None:
@@ -213,16 +224,17 @@ def run_mission(compiled: Compiled, vehicle: Vehicle | Adapter, *,
 
 
 @contextlib.contextmanager
-def _open_log(path: str | Path, about: dict[str, Any], signer: Signer | None = None
-              ) -> Iterator[LogWriter]:
-    """The run log, open (signed by ``signer``, if given), behind its :class:`LogWriter`; one
-    whose header cannot be written is :class:`LogUnwritable`."""
+def _open_log(path: str | Path, about: dict[str, Any], signer: Signer | None = None,
+              poses: PoseLog | None = None) -> Iterator[LogWriter]:
+    """The run log, open (signed by ``signer``, if given), behind its :class:`LogWriter`
+    (which logs ``poses``, if given); one whose header cannot be written is
+    :class:`LogUnwritable`."""
     try:
         log = RunLog(path, about, signer)
     except OSError as exc:
         raise LogUnwritable(path, exc) from None
     try:
-        yield LogWriter(log)
+        yield LogWriter(log, poses)
     finally:
         with contextlib.suppress(OSError):  # what a full disk did not take: said already
             log.close()
@@ -297,6 +309,9 @@ class _Play:
                         vehicle_time=self.clock.vehicle,
                         progress=getattr(chosen.adapter, "progress", None))))
                 player.observers.extend(observers)
+                told = getattr(chosen.adapter, "progress", None)
+                if opened is not None and callable(told):  # long tasks' progress, logged
+                    player.observers.append(ProgressLog(player.net, told, opened.progress))
                 # an observer with a tick(t) is told the mission time at every round
                 rounds = [tick for o in player.observers
                           if callable(tick := getattr(o, "tick", None))]

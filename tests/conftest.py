@@ -60,6 +60,9 @@ SECONDS: dict[str, float] = {
     "tests/app/test_fleet_mcm_zenoh.py": 22,  # paper 003's pair over Zenoh
     "tests/mission/test_mcm_fleet.py": 11,
     "tests/app/view/test_live_fleet.py": 12,  # a fleet over Zenoh in the browser: 10 s idle
+    "tests/app/view/test_live_fleet_secured.py": 17,  # secured vehicles: 2 refusals of 2 s
+    "tests/app/view/test_fleet_track.py": 9,  # paper 003's fleet run, Chromium
+    "tests/app/view/test_run_view.py": 28,  # wall-clock runs, Chromium, MAVLink, Zenoh
     "tests/vehicle/control/test_stack.py": 20,
     "tests/test_layers.py": 20,
     "tests/petri/verification/test_reachability.py": 20,

@@ -1,5 +1,6 @@
 """A minimal WebSocket client (RFC 6455) for tests: enough to speak to a server as a
-Foxglove client does (a subprotocol, text and binary frames), with no library of its own."""
+Foxglove client does (a subprotocol, text and binary frames), or to headless Chromium's
+DevTools (a page's path, no subprotocol), with no library of its own."""
 
 from __future__ import annotations
 
@@ -13,13 +14,14 @@ import struct
 class WebSocket:
     """A client connection: :meth:`send_text`, :meth:`receive` (opcode, payload)."""
 
-    def __init__(self, host: str, port: int, protocol: str, timeout: float = 10.0):
+    def __init__(self, host: str, port: int, protocol: str, timeout: float = 10.0,
+                 path: str = "/"):
         self.sock = socket.create_connection((host, port), timeout=timeout)
         key = base64.b64encode(os.urandom(16)).decode()
-        self.sock.sendall((f"GET / HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\n"
-                           f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
-                           f"Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: {protocol}"
-                           "\r\n\r\n").encode())
+        asked = f"Sec-WebSocket-Protocol: {protocol}\r\n" if protocol else ""
+        self.sock.sendall((f"GET {path} HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket"
+                           f"\r\nConnection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
+                           f"Sec-WebSocket-Version: 13\r\n{asked}\r\n").encode())
         response = b""
         while b"\r\n\r\n" not in response:
             chunk = self.sock.recv(4096)

@@ -85,6 +85,7 @@ class ZenohVehicle(RemoteVehicle):
         self._active: list[str] | None = None  # the vehicle's behaviours on, per telemetry
         self._active_t = -1.0  # the vehicle time of that telemetry
         self._progress: dict[str, Any] = {}  # the behaviours' progress, per telemetry
+        self._pose: tuple[float, float, float, float, float] | None = None  # the navigator's
         self._sent_t = 0.0  # vehicle time when the last action was sent
 
     @property
@@ -110,6 +111,7 @@ class ZenohVehicle(RemoteVehicle):
                 s.declare_subscriber(k["event"], self._on_event),
                 s.declare_subscriber(k["clock"], self._on_clock),
                 s.declare_subscriber(f"{k['telemetry']}/behaviours", self._on_behaviours),
+                s.declare_subscriber(f"{k['telemetry']}/navigator", self._on_navigator),
                 s.liveliness().declare_subscriber(k["alive_vehicle"], self._on_liveliness,
                                                   history=True),
                 s.liveliness().declare_token(f"{k['alive_player']}/{self.run}"),
@@ -197,6 +199,22 @@ class ZenohVehicle(RemoteVehicle):
             self._taken.set()
         elif self._taken.is_set() and run:
             self.link_lost(f"another player (run {run}) took the vehicle")
+
+    def _on_navigator(self, sample: zenoh.Sample) -> None:
+        try:
+            d = json.loads(payload_text(sample))
+            pose = (float(d["t"]), float(d["x"]), float(d["y"]), float(d["z"]),
+                    float(d["yaw"]))
+        except (ValueError, TypeError, KeyError, AttributeError):
+            return
+        with self.lock:
+            self._pose = pose
+
+    def pose(self) -> tuple[float, float, float, float, float] | None:
+        """The vehicle's navigator estimate as its telemetry last said it: ``(t, x, y, z,
+        yaw)``, t on its clock; None before the first (``mcl run --view`` draws its track)."""
+        with self.lock:
+            return self._pose
 
     def progress(self) -> dict[str, Any]:
         """Each active behaviour's progress, as the vehicle's telemetry last said it

@@ -14,10 +14,11 @@ From a log, it checks the log as ``mcl replay`` does (its lines and digest chain
 record against the mission's net: the page shows only a legal run). Live, it follows the
 mission status the player publishes over Zenoh (app/view/live.py). Either way it serves the
 page on ``http://127.0.0.1:PORT/`` (a free port unless ``--port``) and prints that address as
-its first line, until Ctrl-C. ``?t=SECONDS`` opens the page at that instant. What the page
+its first line, until Ctrl-C (live: until a vehicle refuses its credentials, exit 2).
+``?t=SECONDS`` opens the page at that instant. What the page
 shows: app/view/data.py; the server: app/view/server.py. Exit statuses (docs/EXIT.md): 0 when
 stopped, 2 on invalid input (a log that cannot be read or is not a run of the mission, an
-option).
+option, credentials a live vehicle refuses).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import argparse
 import signal
 import sys
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -115,6 +117,7 @@ def _view(args: argparse.Namespace) -> int:
 
     stop = threading.Event()
     found: dict[str, Path] = {}
+    refused: Callable[[], str] = str  # why a live vehicle refused the view ("": none did)
     if args.zenoh:
         problem = _zenoh_problem(args)
         if problem:
@@ -130,6 +133,7 @@ def _view(args: argparse.Namespace) -> int:
         live = LiveRun(mission_data(compile_file(args.files[0], args.tasks or None)),
                        args.name, args.zenoh)
         provider: Provider = live.data
+        refused = lambda: live.refused  # noqa: E731
         threading.Thread(target=follow, args=(live, args.zenoh, security, stop,
                                               threading.Event()),
                          name="mcl-view-zenoh", daemon=True).start()
@@ -139,7 +143,7 @@ def _view(args: argparse.Namespace) -> int:
         if isinstance(live_fleet, str):
             print(live_fleet, file=sys.stderr)
             return Exit.INVALID
-        provider = live_fleet.data
+        provider, refused = live_fleet.data, live_fleet.refused
         what = f"live from {len(live_fleet.runs)} vehicles"
     elif Path(args.files[0]).is_dir() or is_fleet(args.files[1]):
         from app.view.fleet import fleet_data, load_fleet  # as above: for start-up speed
@@ -169,12 +173,15 @@ def _view(args: argparse.Namespace) -> int:
     print(f"mcl view: {server.url} ({provider()['mission']}, {what}; Ctrl-C to stop)",
           flush=True)
     try:
-        while not stop.wait(0.5):
+        while not stop.wait(0.5) and not refused():
             pass
     finally:
         stop.set()
         server.shutdown()
         server.server_close()
+    if refused():  # wrong credentials: one line, exit 2
+        print(refused(), file=sys.stderr)
+        return Exit.INVALID
     return Exit.OK
 
 

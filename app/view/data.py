@@ -4,7 +4,8 @@
   (``KIND@LINE:COL``, mission/blocks.py's key), its title as written and its source line;
 - ``changes``: every change of a block's state, ``[t, id, state]`` in the order of the
   firings (mission/blocks.py: the one model of block states);
-- ``timeline``: the actions, events and the end, each with its mission time and its line;
+- ``timeline``: the actions, events, long tasks' progress and the end, each with its mission
+  time and its line;
 - ``bounds``: the proved [best, worst] of the mission and of each block
   (mcl/analysis/duration.py), from which the page says the time left at any instant;
 - ``track``: the vehicle's positions ``[t, x, y, z]``: the log's ``pose`` records where it
@@ -23,6 +24,8 @@ from mcl import ast, printer
 from mcl.analysis.duration import analyse, json_number
 from mcl.api import Compiled
 from mission.blocks import KINDS, BlockStates, block_id, key_of
+
+from app.monitor import task_detail
 
 PICTURES = {"mosaic": ".mosaic.png", "coverage": ".coverage.png", "trajectory": ".svg"}
 MAX_TRACK = 5000  # points sent to the page, at most (a long run is thinned evenly)
@@ -112,6 +115,10 @@ def timeline(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
                     entry["line"] = r.get("line")
                     waiting.remove(entry)
                     break
+        elif kind == "progress":  # a long task, once a minute (mission/progress.py)
+            task = str(r.get("task", ""))
+            out.append({"t": t, "kind": "progress", "task": task, "line": line_of(task),
+                        "text": f"{task} … {task_detail(r, t)}"[:200]})
         elif kind == "end":
             out.append({"t": t, "kind": "end", "line": None,
                         "text": f"mission ends {str(r.get('status', r['how'])).upper()}"

@@ -12,7 +12,10 @@ every block's id and state change prefixed by its vehicle (``asv/CALL@12:9``), s
 vehicles never share one; the timeline is every vehicle's, each entry under its vehicle's
 name, with the channels' messages (sent, delivered, lost, dropped, undelivered), in mission
 time (the vehicles share one clock from 0); the proved bounds are each vehicle's, and the
-fleet's [best, worst] is the largest of theirs (the fleet ends when its last vehicle does).
+fleet's [best, worst] is the largest of theirs (the fleet ends when its last vehicle does);
+the tracks are each vehicle's (``tracks``, by name: its log's poses, or live its navigator's
+estimate), drawn on one plan over the scene its log's header gives (``scene``: the dam wall,
+paper 003's mine and clutter; mission/poses.py).
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from petri.execution.runlog import LogError, read_log, verify
 
 from mcl.fleet import CompiledFleet, compile_fleet_file
 from mission.fleet_evidence import RecordProblem, read_record
+from mission.poses import is_scene
 
 from app.fleet_replay import fleet_header
 from app.view.data import page_data
@@ -103,7 +107,20 @@ def fleet_data(fleet: CompiledFleet, logs: dict[str, list[dict[str, Any]]],
     """Everything the page shows of the fleet's run (this module's doc)."""
     runs = {name: page_data(compiled, logs[name], folder / f"{name}.jsonl")
             for name, compiled in fleet.vehicles.items()}
-    return vehicles_page(fleet, runs, channel_timeline(record))
+    scenes = [logs[name][0].get("scene") for name in fleet.vehicles]
+    return {**vehicles_page(fleet, runs, channel_timeline(record)),
+            "scene": scene([s for s in scenes if s is not None and is_scene(s)])}
+
+
+def scene(scenes: list[dict[str, Any]]) -> dict[str, Any]:
+    """The vehicles' scenes (their logs' headers: mission/poses.py) as one: each line and
+    each set of points once, by name (the vehicles of one world say the same)."""
+    lines: dict[str, Any] = {}
+    points: dict[str, Any] = {}
+    for one in scenes:
+        lines = {**one["lines"], **lines}
+        points = {**one["points"], **points}
+    return {"lines": lines, "points": points}
 
 
 def vehicles_page(fleet: CompiledFleet, runs: dict[str, dict[str, Any]],
@@ -143,4 +160,7 @@ def vehicles_page(fleet: CompiledFleet, runs: dict[str, dict[str, Any]],
                        "blocks": blocks},
             "changes": changes, "timeline": timeline,
             "end": {"t": end_t, "status": status}, "track": [], "track_from": "",
+            "tracks": {name: data["track"] for name, data in runs.items()},
+            "tracks_from": {name: data["track_from"] for name, data in runs.items()},
+            "scene": {"lines": {}, "points": {}},
             "pictures": {}, "live": False, "vehicles": list(runs)}

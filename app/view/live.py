@@ -1,6 +1,8 @@
 """``mcl view --zenoh ENDPOINT``: the page of a run as it happens, fed by the mission status
 the player publishes (``mcl/<v>/mission/status``, docs/ZENOH.md) and both sides' liveliness
-tokens, read as ``mcl monitor`` reads them (an observer: it sends nothing).
+tokens, read as ``mcl monitor`` reads them (an observer: it sends nothing). ``mcl run
+--view`` feeds the same :class:`LiveRun` in the player's own process, with the same status
+dicts (:meth:`LiveRun.take_status`) and the vehicle's poses (app/view/run_view.py).
 
 Each status names the state of every block started so far (``blocks``, mission/blocks.py); a
 change from the status before is a change on the page, at the status's mission time. Its
@@ -17,8 +19,11 @@ from __future__ import annotations
 
 import json
 import math
+import socket
 import threading
 from typing import Any
+
+from diagnostics import MclError
 
 from app.monitor import task_detail
 from app.view.data import MAX_TRACK, line_of
@@ -45,13 +50,21 @@ class LiveRun:
         self.offset = 0.0  # the vehicle's clock minus mission time, as the last status says
         self.clock: float | None = None  # the vehicle's clock, as its telemetry last said
         self.running: list[dict[str, Any]] = []  # the last status's running tasks
+        self.refused = ""  # why the vehicle refused this observer's session ("": it did not)
+        self.track_from = "the navigator's estimate"  # what the track's points are
 
     def on_status(self, payload: bytes) -> None:
-        """A status as the player published it (ill-formed ones are dropped)."""
+        """A status as the player published it over Zenoh (ill-formed ones are dropped)."""
         try:
             status = json.loads(payload)
         except ValueError:
             return
+        self.take_status(status)
+
+    def take_status(self, status: Any) -> None:
+        """A status as the player's observer made it (petri/execution/status.py, with its
+        ``blocks``): over Zenoh, or in the player's own process (``mcl run --view``,
+        app/view/run_view.py); ill-formed ones are dropped."""
         if not isinstance(status, dict) or status.get("v") != 1 or \
                 not isinstance(status.get("blocks", {}), dict):
             return
@@ -100,6 +113,11 @@ class LiveRun:
             point = [float(nav[k]) for k in ("t", "x", "y", "z")]
         except (ValueError, TypeError, KeyError):
             return
+        self.take_position(point)
+
+    def take_position(self, point: list[float]) -> None:
+        """One point of the track, ``[t, x, y, z]`` on the vehicle's clock (non-finite ones
+        are dropped)."""
         if not all(math.isfinite(v) for v in point):
             return
         with self.lock:
@@ -113,6 +131,10 @@ class LiveRun:
             t = float(json.loads(payload)["t"])
         except (ValueError, TypeError, KeyError):
             return
+        self.take_clock(t)
+
+    def take_clock(self, t: float) -> None:
+        """The vehicle's clock now (a non-finite one is dropped)."""
         if math.isfinite(t):
             with self.lock:
                 self.clock = t
@@ -126,8 +148,12 @@ class LiveRun:
 
     def on_alive(self, key: str, present: bool) -> None:
         if key.endswith("/alive/vehicle"):
-            with self.lock:
-                self.vehicle_alive = present
+            self.seen_alive(present)
+
+    def seen_alive(self, present: bool) -> None:
+        """Whether the vehicle is there (its liveliness token, or its link)."""
+        with self.lock:
+            self.vehicle_alive = present
 
     def data(self) -> dict[str, Any]:
         """The page's data now."""
@@ -148,7 +174,7 @@ class LiveRun:
             return {**self.base, "changes": list(self.changes), "progress": progress,
                     "timeline": list(self.timeline), "end": {"t": now, "status": ended},
                     "live": True, "link": link, "track": track,
-                    "track_from": "the navigator's estimate" if track else ""}
+                    "track_from": self.track_from if track else ""}
 
 
 def follow(live: LiveRun, endpoint: str, security: Any, stop: threading.Event,
@@ -160,7 +186,11 @@ def follow(live: LiveRun, endpoint: str, security: Any, stop: threading.Event,
     from aal.zenoh import close_session, keys, payload_text
 
     k = keys(live.vehicle)
-    session = observer_session(endpoint, security, stop)
+    try:
+        session = observer_session(endpoint, security, stop)
+    except SessionRefused as exc:
+        live.refused = exc.line
+        return
     if session is None:
         return
     try:
@@ -181,17 +211,51 @@ def follow(live: LiveRun, endpoint: str, security: Any, stop: threading.Event,
         close_session(session)
 
 
+class SessionRefused(MclError):
+    """Something answers at the endpoint but will not open this observer's session: the
+    vehicle refused its credentials (``--user``/``--password-file``, or its TLS
+    certificate), or it is not a Zenoh vehicle. ``line``: what ``mcl view`` says, exit 2."""
+
+    def __init__(self, endpoint: str) -> None:
+        self.line = (f"mcl view: error: the vehicle at {endpoint} accepts connections but "
+                     "refused this observer's session: check --user and --password-file (or "
+                     "the TLS certificates) against the vehicle's --users")
+        super().__init__(self.line, code="zenoh-refused", text=self.line)
+
+
+REFUSALS = 2  # refusals in a row, by something that accepts TCP at the endpoint, before
+#               the view gives up (one may be a vehicle still starting)
+
+
+def listens(endpoint: str, timeout: float = 1.0) -> bool:
+    """Whether something accepts a TCP connection at a ``tcp/`` or ``tls/`` endpoint."""
+    proto, _, where = endpoint.partition("/")
+    host, _, port = where.split("?")[0].rpartition(":")
+    if proto not in ("tcp", "tls") or not port.isdigit():
+        return False
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout):
+            return True
+    except OSError:
+        return False
+
+
 def observer_session(endpoint: str, security: Any, stop: threading.Event) -> Any:
     """An observer's client session to the vehicle at ``endpoint``, reopened while the vehicle
-    is not there yet; None if ``stop`` came first."""
+    is not there yet; None if ``stop`` came first. :class:`SessionRefused` when something
+    listens there but refuses the session :data:`REFUSALS` times in a row."""
     import zenoh  # lazy: for start-up speed (a log's view needs no Zenoh)
 
     from aal.zenoh import zenoh_config
 
+    refused = 0
     while not stop.is_set():
         try:
             return zenoh.open(zenoh_config(endpoint, "client", connect=True,
                                            security=security, role="observer"))
         except zenoh.ZError:
+            refused = refused + 1 if listens(endpoint) else 0
+            if refused >= REFUSALS:
+                raise SessionRefused(endpoint) from None
             stop.wait(0.5)
     return None

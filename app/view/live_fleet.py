@@ -20,7 +20,7 @@ from mcl.fleet import CompiledFleet
 
 from app.view.data import mission_data
 from app.view.fleet import vehicles_page
-from app.view.live import LiveRun, observer_session
+from app.view.live import LiveRun, SessionRefused, observer_session
 
 MAX_MESSAGES = 1000  # the channel messages the page keeps (the latest)
 
@@ -70,6 +70,10 @@ class LiveFleet:
                                 f"{m['sender']}"[:200]})
         return out
 
+    def refused(self) -> str:
+        """Why a vehicle refused the view's session ("": none did)."""
+        return next((run.refused for run in self.runs.values() if run.refused), "")
+
     def data(self) -> dict[str, Any]:
         """The page's data now."""
         runs = {name: live.data() for name, live in self.runs.items()}
@@ -92,7 +96,10 @@ def follow_channels(live: LiveFleet, endpoints: list[str], securities: dict[str,
     sessions = []
     try:
         for endpoint in endpoints:
-            session = observer_session(endpoint, securities[endpoint], stop)
+            try:
+                session = observer_session(endpoint, securities[endpoint], stop)
+            except SessionRefused:  # the vehicle's own follower says so (mcl view: exit 2)
+                return
             if session is None:
                 return
             sessions.append(session)

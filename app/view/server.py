@@ -1,4 +1,5 @@
-"""The web server of ``mcl view``: Python's own ``http.server`` on the loopback interface.
+"""The web server of ``mcl view``: Python's own ``http.server`` on the loopback interface
+(``mcl run --view HOST:PORT`` may choose another).
 
 It serves one page (``static/view.html``, shipped as package data with its script and style:
 nothing is fetched from elsewhere, no build step), with the page's data embedded in it so that
@@ -9,6 +10,7 @@ while a run is live); and the pictures found beside the run log. Every other pat
 from __future__ import annotations
 
 import json
+import socket
 import threading
 from collections.abc import Callable
 from http import HTTPStatus
@@ -42,14 +44,19 @@ class ViewServer(ThreadingHTTPServer):
 
     daemon_threads = True
 
-    def __init__(self, provider: Provider, pictures: dict[str, Path], port: int = 0):
-        super().__init__((HOST, port), Handler)
+    def __init__(self, provider: Provider, pictures: dict[str, Path], port: int = 0,
+                 host: str = HOST):
+        if ":" in host:  # an IPv6 address (``mcl run --view [::1]:8080``)
+            self.address_family = socket.AF_INET6
+        super().__init__((host.strip("[]"), port), Handler)
         self.provider = provider
         self.pictures = pictures
+        self.host = host
 
     @property
     def url(self) -> str:
-        return f"http://{HOST}:{self.server_address[1]}/"
+        host = f"[{self.host.strip('[]')}]" if ":" in self.host else self.host
+        return f"http://{host}:{self.server_address[1]}/"
 
     def start(self) -> threading.Thread:
         """Serve on a thread of its own (for tests and live runs); ``shutdown()`` ends it."""

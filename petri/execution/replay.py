@@ -54,6 +54,8 @@ FIELDS: dict[str, dict[str, type | tuple[type, ...]]] = {
     "note": {"note": str},
     "cleanup": {"behaviours": list},
     "end": {"how": str, "why": str},
+    "pose": {"x": (int, float), "y": (int, float), "z": (int, float)},  # not played
+    "progress": {"task": str, "progress": dict},  # not played
 }
 NUMBER = (int, float)
 # Fields a record may carry, checked when it does (a library caller's end record may say less).
@@ -63,6 +65,7 @@ OPTIONAL: dict[str, dict[str, type | tuple[type, ...]]] = {
     "end": {"exit": int, "status": str, "switched_off": list, "confirmed": str,
             "vehicle_t": NUMBER, "vehicle_t0": NUMBER, "limit": NUMBER, "limit_from": str,
             "handled": list},
+    "pose": {"yaw": NUMBER},
 }
 STOPPED_HOWS = ("time limit", "stuck", "signal", "zeno")  # ended through the abort
 BROKE_DOWN = ("error", "refused", "no vehicle")  # how an end that claims no clean exit says
@@ -171,6 +174,8 @@ class Replay:
     def step(self, r: dict[str, Any]) -> str | None:
         """Play one record."""
         kind, now = r["kind"], float(r.get("t", 0.0))
+        if kind in ("pose", "progress"):  # what the vehicle said: nothing the player did
+            return None
         if kind == "status":
             self.last_status = str(r.get("status"))
         if kind == "status" and r.get("status") == "running":

@@ -23,6 +23,12 @@ ignored     ``event``, ``reason``: an event that fired nothing
 note        ``note``: text for people (never read back by a program)
 cleanup     ``behaviours``: the player's own switch-off, when the net has left these on at the
             end (or could not end); a plain disable of each, task MISSION, follows
+pose        ``x``, ``y``, ``z`` (m), ``yaw`` (rad): where the vehicle was at ``t`` (a simulated
+            vehicle's true pose, about one a second: mission/poses.py); not the player's, so
+            a replay passes over it
+progress    ``task``, ``since``, ``progress`` (what its behaviour says: ``waypoint``, ``of``,
+            ``to_go``), ``bound`` and ``left`` when bounded: how far along a long task is, once
+            a minute of mission time (mission/progress.py); not the player's either
 ==========  ===================================================================================
 
 A run log is evidence. Every line is the record's compact JSON (ASCII, each key once, the
@@ -64,7 +70,8 @@ from petri.execution.signing import Signer, public_key, signed
 FORMAT = "mcl-run-log/3"
 GENESIS = "0" * 64  # the "previous digest" of the header
 END = "end"  # the kind of the last record of a run that ended (however it ended)
-KINDS = ("header", "status", "fire", "action", "event", "ignored", "note", "cleanup", END)
+KINDS = ("header", "status", "fire", "action", "event", "ignored", "note", "cleanup", "pose",
+         "progress", END)
 MAX_LINE = 1024 * 1024  # bytes: the longest record read (a run writes a few hundred)
 MAX_LOG = 256 * 1024 * 1024  # bytes: the largest log read (about a million records)
 MAX_DIGITS = 20  # the longest integer read (seeds, indices, exit statuses are shorter)
@@ -125,6 +132,14 @@ class RunLog:
 
     def __call__(self, record: Record) -> None:
         self._write({"t": round(record.t, 6), "kind": record.kind, **record.data})
+
+    def pose(self, t: float, **where: float) -> None:
+        """Where the vehicle was at ``t`` (``x``, ``y``, ``z``, ``yaw``): a ``pose`` record."""
+        self._write({"t": round(t, 6), "kind": "pose", **where})
+
+    def progress(self, t: float, **report: Any) -> None:
+        """How far along a running task is at ``t``: a ``progress`` record."""
+        self._write({"t": round(t, 6), "kind": "progress", **report})
 
     def end(self, t: float, how: str, why: str = "", **more: Any) -> None:
         """The last record: how the run ended (ok, fail, timeout, stuck, stopped, error...)

@@ -181,6 +181,14 @@ class MavlinkVehicle(RemoteVehicle):
         with self.lock:
             return progress_of(self.guided.behaviours.values())
 
+    def pose(self) -> tuple[float, float, float, float, float] | None:
+        """Where the vehicle last said it is (LOCAL_POSITION_NED, ATTITUDE's yaw): ``(t, x,
+        y, z, yaw)``, t on its clock (s), in the local NED frame (m, rad); None before its
+        first position (``mcl run --view`` draws the track of it)."""
+        with self.lock:
+            tel = self.tel
+            return (tel.t, tel.x, tel.y, tel.z, tel.yaw) if tel.positioned else None
+
     def summary(self) -> dict[str, Any]:
         """What went over the link: counts, command latencies, signing."""
         ms = sorted(1e3 * s for s in self.commands.latencies)

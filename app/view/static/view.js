@@ -75,13 +75,92 @@ function statesAt(t) {
 
 function trackView(points) {
   // the wall seen from the vehicle (along-wall y, depth z down) when the track keeps close to
-  // a wall plane, else the plan (x east, y north up)
-  const span = (i) => Math.max(...points.map((p) => p[i])) - Math.min(...points.map((p) => p[i]));
+  // a wall plane, else the plan (x east, y north up); the spans leave out the first and last
+  // twentieth of each coordinate's values (the way to the wall and back is not the survey)
+  const span = (i) => {
+    const v = points.map((p) => p[i]).sort((a, b) => a - b);
+    return v[Math.floor(0.95 * (v.length - 1))] - v[Math.floor(0.05 * (v.length - 1))];
+  };
   return span(1) < 0.25 * span(2) ? {h: 2, v: 3, down: true, names: ["along the wall y (m)", "depth z (m)"]}
                                   : {h: 1, v: 2, down: false, names: ["x (m)", "y (m)"]};
 }
 
+const COLOURS = ["#2f7de1", "#d2691e", "#2e8b57", "#8a2be2", "#c71585", "#008b8b"];
+
+function svgEl(tag, attrs) {
+  const e = document.createElementNS(SVG, tag);
+  for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, v);
+  return e;
+}
+
+function renderPlan(t) {
+  // a fleet: every vehicle's track on one plan (x east, y north up) over the scene its logs
+  // name (the dam wall, the mine and the clutter), each vehicle where it was at t, named
+  const box = document.getElementById("track");
+  const tracks = Object.entries(data.tracks).filter(([, pts]) => pts.length);
+  if (!tracks.length) { box.textContent = "no track in these logs"; return; }
+  const scene = data.scene || {lines: {}, points: {}};
+  const box0 = (pts) => [Math.min(...pts.map((p) => p[0])), Math.max(...pts.map((p) => p[0])),
+                         Math.min(...pts.map((p) => p[1])), Math.max(...pts.map((p) => p[1]))];
+  const seen = [...tracks.flatMap(([, pts]) => pts.map((p) => [p[1], p[2]])),
+                ...Object.values(scene.points).flat()];
+  let [x0, x1, y0, y1] = box0(seen);  // the lines count where they pass near (a wall is long)
+  const near = Object.values(scene.lines).flat().filter(
+    (p) => p[0] > x0 - 5 && p[0] < x1 + 5 && p[1] > y0 - 5 && p[1] < y1 + 5);
+  [x0, x1, y0, y1] = box0([...seen, ...near]);
+  const pad = 2;
+  let w = Math.max(x1 - x0, 1) + 2 * pad;
+  const h = Math.max(y1 - y0, 1) + 2 * pad;
+  if (h > 0.8 * w) {  // no taller than wide, by much: wider, on the same scale
+    const grow = (h / 0.8 - w) / 2;
+    [x0, x1, w] = [x0 - grow, x1 + grow, h / 0.8];
+  }
+  const X = (x) => (x - x0 + pad) * 600 / w, Y = (y) => (y1 - y + pad) * 600 / w;
+  const at = (pts) => pts.map((p) => `${X(p[0]).toFixed(1)},${Y(p[1]).toFixed(1)}`).join(" ");
+  const height = Math.ceil(h * 600 / w);
+  const svg = svgEl("svg", {viewBox: `0 0 600 ${height + 20}`, id: "plan"});
+  for (const [name, pts] of Object.entries(scene.lines)) {
+    svg.append(svgEl("polyline", {class: "scene-line", "data-name": name, points: at(pts),
+                                  fill: "none", stroke: "#7a6a58", "stroke-width": "4"}));
+  }
+  for (const [name, pts] of Object.entries(scene.points)) {
+    for (const p of pts) {
+      svg.append(svgEl("circle", {class: "scene-point", "data-name": name, cx: X(p[0]),
+                                  cy: Y(p[1]), r: name === "mine" ? "6" : "3",
+                                  fill: name === "mine" ? "#222" : "#a8a29a"}));
+    }
+  }
+  tracks.forEach(([name, pts], i) => {
+    const colour = COLOURS[i % COLOURS.length];
+    const xy = (list) => at(list.map((p) => [p[1], p[2]]));
+    svg.append(svgEl("polyline", {class: "planned", "data-vehicle": name, points: xy(pts),
+                                  fill: "none", stroke: "#c3c9d4", "stroke-width": "2"}));
+    const done = pts.filter((p) => p[0] <= t);
+    if (!done.length) return;
+    svg.append(svgEl("polyline", {class: "travelled", "data-vehicle": name, points: xy(done),
+                                  "data-points": done.length, fill: "none", stroke: colour,
+                                  "stroke-width": "2"}));
+    const last = done[done.length - 1];
+    svg.append(svgEl("circle", {class: "vehicle", "data-vehicle": name, "data-t": last[0],
+                                "data-x": last[1], "data-y": last[2], cx: X(last[1]).toFixed(1),
+                                cy: Y(last[2]).toFixed(1), r: "6", fill: colour}));
+    const label = svgEl("text", {class: "vehicle-name", "data-vehicle": name, "font-size": "13",
+                                 x: (X(last[1]) + 8).toFixed(1), y: (Y(last[2]) - 8).toFixed(1)});
+    label.textContent = name;
+    svg.append(label);
+  });
+  const label = svgEl("text", {x: "4", y: String(height + 15), "font-size": "12"});
+  label.textContent = `x (m) ${x0.toFixed(1)} to ${x1.toFixed(1)}; y (m) ${y0.toFixed(1)} to ` +
+    `${y1.toFixed(1)} (${[...new Set(Object.values(data.tracks_from || {}).filter((s) => s))].join("; ")})` +
+    [...Object.keys(scene.lines).map((n) => `; ${n}: brown line`),
+     ...Object.entries(scene.points).map(([n, pts]) =>
+       `; ${n}: ${n === "mine" ? "black" : "grey"} dot${pts.length === 1 ? "" : "s"}`)].join("");
+  svg.append(label);
+  box.replaceChildren(svg);
+}
+
 function renderTrack(t) {
+  if (data.tracks) { renderPlan(t); return; }
   const box = document.getElementById("track");
   const points = data.track;
   if (!points.length) { box.textContent = "no track in this log"; return; }
@@ -206,8 +285,10 @@ async function poll() {  // a live run: the server keeps data.json up to date
     render();
     show(follow || !data.live ? data.end.t : Number(document.getElementById("time").value));
     document.getElementById("live").textContent = data.live ? `live: ${data.link}` : "";
-  } catch (err) {
-    document.getElementById("live").textContent = `live: no answer (${err})`;
+  } catch (err) {  // once a run has ended, its server may stop (mcl run --view)
+    document.getElementById("live").textContent = data.end.status
+      ? `live: no answer: the run ended ${data.end.status.toUpperCase()} and its server has stopped`
+      : `live: no answer (${err})`;
   }
   setTimeout(poll, 1000);
 }
