@@ -27,6 +27,7 @@ import argparse
 import signal
 import sys
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -118,6 +119,7 @@ def _view(args: argparse.Namespace) -> int:
     stop = threading.Event()
     found: dict[str, Path] = {}
     refused: Callable[[], str] = str  # why a live vehicle refused the view ("": none did)
+    followers: list[threading.Thread] = []  # the threads that follow live vehicles over Zenoh
     if args.zenoh:
         problem = _zenoh_problem(args)
         if problem:
@@ -134,12 +136,12 @@ def _view(args: argparse.Namespace) -> int:
                        args.name, args.zenoh)
         provider: Provider = live.data
         refused = lambda: live.refused  # noqa: E731
-        threading.Thread(target=follow, args=(live, args.zenoh, security, stop,
-                                              threading.Event()),
-                         name="mcl-view-zenoh", daemon=True).start()
+        followers.append(threading.Thread(target=follow, args=(live, args.zenoh, security, stop,
+                                                               threading.Event()),
+                                          name="mcl-view-zenoh", daemon=True))
         what = f"live from {args.zenoh}"
     elif args.fleet_vehicle:
-        live_fleet = _live_fleet(args, stop)
+        live_fleet = _live_fleet(args, stop, followers)
         if isinstance(live_fleet, str):
             print(live_fleet, file=sys.stderr)
             return Exit.INVALID
@@ -170,6 +172,8 @@ def _view(args: argparse.Namespace) -> int:
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop.set())
     server.start()
+    for thread in followers:
+        thread.start()
     print(f"mcl view: {server.url} ({provider()['mission']}, {what}; Ctrl-C to stop)",
           flush=True)
     try:
@@ -179,6 +183,7 @@ def _view(args: argparse.Namespace) -> int:
         stop.set()
         server.shutdown()
         server.server_close()
+        _join(followers)
     if refused():  # wrong credentials: one line, exit 2
         print(refused(), file=sys.stderr)
         return Exit.INVALID
@@ -191,9 +196,24 @@ def _zenoh_problem(args: argparse.Namespace) -> str | None:
     return option_error(args.zenoh, args.name)
 
 
-def _live_fleet(args: argparse.Namespace, stop: threading.Event) -> Any:
-    """The fleet's live run, followed on threads of their own until ``stop``; or the one line
-    saying what is wrong with the options."""
+FOLLOWERS_JOIN = 15.0  # seconds for the followers to leave Zenoh after ``stop`` (a session
+#                       being opened finishes its attempt first)
+
+
+def _join(followers: list[threading.Thread]) -> None:
+    """Wait for the followers to close their sessions: an interpreter that exits while a thread
+    is inside Zenoh's native code aborts ("FATAL: exception not rethrown", exit -6) instead
+    of returning the view's exit status."""
+    deadline = time.monotonic() + FOLLOWERS_JOIN
+    for thread in followers:
+        if thread.ident is not None:
+            thread.join(max(0.0, deadline - time.monotonic()))
+
+
+def _live_fleet(args: argparse.Namespace, stop: threading.Event,
+                followers: list[threading.Thread]) -> Any:
+    """The fleet's live run, followed on ``followers`` (threads, not yet started) until
+    ``stop``; or the one line saying what is wrong with the options."""
     from app import zenoh_options
     from app.monitor_fleet import fleet_vehicles
     from app.view.live import follow
@@ -219,10 +239,10 @@ def _live_fleet(args: argparse.Namespace, stop: threading.Event) -> Any:
             return f"mcl view: error: {exc}"
     live = LiveFleet(fleet, endpoints)
     for name, run in live.runs.items():
-        threading.Thread(target=follow, args=(run, run.endpoint, securities[run.endpoint],
-                                              stop, threading.Event()),
-                         name=f"mcl-view-{name}", daemon=True).start()
-    threading.Thread(target=follow_channels, args=(live, list(securities), securities, stop,
-                                                   threading.Event()),
-                     name="mcl-view-channels", daemon=True).start()
+        followers.append(threading.Thread(
+            target=follow, args=(run, run.endpoint, securities[run.endpoint], stop,
+                                 threading.Event()), name=f"mcl-view-{name}", daemon=True))
+    followers.append(threading.Thread(
+        target=follow_channels, args=(live, list(securities), securities, stop,
+                                      threading.Event()), name="mcl-view-channels", daemon=True))
     return live
