@@ -20,11 +20,9 @@ from typing import Any
 
 from diagnostics import Diagnostic, MclError, Span, read_source
 from mcl.api import Compiled, compile_source, parse_params
-from mcl.fleet import is_fleet
-from mcl.parser import trees_kept
+from mcl.parser import is_fleet, trees_kept
 
 from app.arguments import memory_size
-from app.fleet_check import check_fleet
 from app.mission_report import SEVERITY, diag_json, verify_and_report
 from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
 from app.version import VersionAction
@@ -252,6 +250,8 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str,
     if args.graphml is not None:
         check_output(args.graphml, "--graphml")
     if is_fleet(path):
+        from app.fleet_check import check_fleet  # lazy for start-up speed: fleets only
+
         return check_fleet(path, args, fmt)
     if args.method == "compositional":
         raise MclError("--method compositional proves a fleet, and this file is not one",
@@ -262,6 +262,8 @@ def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str,
     params = parse_params(args.param, args.params)
     source = read_source(path)
     if is_fleet(source):  # a pipe (mclc <(...)) is read once: its first word says which
+        from app.fleet_check import check_fleet  # lazy for start-up speed: fleets only
+
         return check_fleet(source, args, fmt)
     compiled = compile_source(source, args.tasks or None, params)
     _write_outputs(compiled, args)

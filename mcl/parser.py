@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import difflib
 import os
+import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
 from functools import lru_cache
@@ -297,6 +298,23 @@ def _fleet_mistake(source: Source, token: Token, previous: Token | None,
                      "a file holds one FLEET; remove what follows its closing '}'",
                      code="text-after-mission")
     return None
+
+
+def is_fleet(path_or_source: str | Source) -> bool:
+    """Whether a file (a path, or its source) is a fleet: its first word is FLEET. A file
+    that cannot be read is not one (reading it again reports why), nor is one that is not a
+    regular file: a named pipe (``mclc <(...)``) can be read only once, so ask of its source."""
+    if isinstance(path_or_source, Source):
+        text = path_or_source.text
+    else:
+        try:
+            if not stat.S_ISREG(os.stat(path_or_source).st_mode):
+                return False
+            with open(path_or_source, encoding="utf-8", errors="replace") as f:
+                text = f.read(65536)
+        except (OSError, ValueError):  # ValueError: a path with a NUL byte
+            return False
+    return first_word(text) == "FLEET"
 
 
 def first_word(text: str) -> str:

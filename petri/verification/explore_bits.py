@@ -22,8 +22,6 @@ import sys
 from array import array
 from typing import Any
 
-import numpy as np
-
 from petri.net import Net, triggers
 
 
@@ -46,21 +44,16 @@ def explore_bits(net: Net, max_markings: int, dense: bool = True, arcs: bool = T
     stops, incomplete with fewer than ``max_markings`` markings, where the next marking would
     take what it holds (:data:`HELD_PER_MARKING` and the marking itself, the dense array made
     at the end included) past ``max_bytes``."""
-    if any(w != 1 for tr in net.transitions for _, w in tr.inputs + tr.outputs) or \
-            any(n > 1 for n in net.initial.values()) or \
-            any(not tr.inputs for tr in net.transitions):  # a source fills a place twice
-        return None
-    n_trans = len(net.transitions)
-    inputs = [[p for p, _ in tr.inputs] for tr in net.transitions]
-    rank = [min(ins) * n_trans + t for t, ins in enumerate(inputs)]  # successor order
-    readers: list[tuple[int, ...]] = [() for _ in net.places]
-    for t, p in enumerate(triggers(net)):
-        readers[p] += (t,)  # examined when its most selective input is marked
+    found = search(net, max_markings, arcs, max_bytes)
+    return None if found is None else arrays(net, found, dense, arcs)
+
+
+def arrays(net: Net, found: Found, dense: bool = True, arcs: bool = True
+           ) -> tuple[object, ...]:
+    """What :func:`search` found as :func:`explore_bits` gives it (numpy arrays)."""
+    import numpy as np  # lazy for start-up speed: search() alone needs no numpy (mclc)
+
     wide = len(net.places) > WIDE
-    search = _search_sets if wide else _search_ints
-    found = search(net, readers, rank, max_markings, arcs, max_bytes)
-    if found is None:
-        return None
     order, src, dst, trs, parent, parent_t, head, complete, degree, fired = found
     counts: tuple[object, ...] = () if arcs else (
         np.asarray(degree + [0] * (len(order) - len(degree)), dtype=np.int32),
@@ -91,6 +84,31 @@ def explore_bits(net: Net, max_markings: int, dense: bool = True, arcs: bool = T
 
 Found = tuple[list[Any], "array[int]", "array[int]", "array[int]", "array[int]", "array[int]",
               int, bool, list[int], list[int]]
+"""What :func:`search` finds: the markings in breadth-first order (integers, one bit per
+place, on nets of at most :data:`WIDE` places; frozensets of marked places on wider ones), the
+arcs (src, dst, transition), each marking's parent and the transition fired from it, how many
+markings were expanded, whether the search is complete, and without arcs each marking's number
+of successors and each transition's number of firings."""
+
+
+def search(net: Net, max_markings: int, arcs: bool = True, max_bytes: float = math.inf
+           ) -> Found | None:
+    """The breadth-first search of :func:`explore_bits` in Python's own containers (no numpy:
+    what a small mission's verification needs), or None when the net is not 1-safe with unit
+    weights."""
+    if any(w != 1 for tr in net.transitions for _, w in tr.inputs + tr.outputs) or \
+            any(n > 1 for n in net.initial.values()) or \
+            any(not tr.inputs for tr in net.transitions):  # a source fills a place twice
+        return None
+    n_trans = len(net.transitions)
+    inputs = [[p for p, _ in tr.inputs] for tr in net.transitions]
+    rank = [min(ins) * n_trans + t for t, ins in enumerate(inputs)]  # successor order
+    readers: list[tuple[int, ...]] = [() for _ in net.places]
+    for t, p in enumerate(triggers(net)):
+        readers[p] += (t,)  # examined when its most selective input is marked
+    wide = len(net.places) > WIDE
+    searcher = _search_sets if wide else _search_ints
+    return searcher(net, readers, rank, max_markings, arcs, max_bytes)
 
 
 def _search_ints(net: Net, readers: list[tuple[int, ...]], rank: list[int], max_markings: int,
