@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 import time
 from array import array
+from bisect import bisect_left
 from collections.abc import Iterable, Sequence
 from itertools import compress
 from typing import TYPE_CHECKING
@@ -129,11 +130,8 @@ class Graph:
         self.terminal = [e and k == 1 for e, k in zip(self.ended, self.others)]
         stops = set(rules.stops)
         self.stop_arc = [t in stops for t in trs]
-        self.starts = [0] * (n + 1)  # the arcs leaving m: starts[m] to starts[m + 1]
-        for s in src:
-            self.starts[s + 1] += 1
-        for m in range(n):
-            self.starts[m + 1] += self.starts[m]
+        # the arcs leaving m: starts[m] to starts[m + 1] (the arcs are in their sources' order)
+        self.starts = [bisect_left(src, m) for m in range(n + 1)]
         self.main = self.forward([0], [not s for s in self.stop_arc])
         seeds = [d for d, s, stop in zip(dst, src, self.stop_arc) if stop and self.main[s]]
         self.stopped = self.forward(seeds, None) if seeds else bytearray(n)
@@ -252,10 +250,14 @@ class Graph:
                   if net.dofs.get(b) and len(places) > 1]
         dofs = sorted({d for b in holders for d in net.dofs.get(b, ())})
         groups = [[on[b] for b in sorted(holders) if d in net.dofs.get(b, ())] for d in dofs]
-        for m in held:
-            if any((m & bits).bit_count() > 1 for bits in shared):
+        for bits in shared:  # two of its places marked at once
+            if any(x & (x - 1) for x in {m & bits for m in held}):
                 return False  # behaviour-single-owner
-            if any(sum(m & bits != 0 for bits in g) > 1 for g in groups if len(g) > 1):
+        for group in (g for g in groups if len(g) > 1):  # two of its behaviours on at once
+            union = 0
+            for bits in group:
+                union |= bits
+            if any(sum(x & bits != 0 for bits in group) > 1 for x in {m & union for m in held}):
                 return False  # dof-exclusive
         disables = [0] * len(net.transitions)  # the holders of what each one disables
         for t, tr in enumerate(net.transitions):

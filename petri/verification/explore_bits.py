@@ -130,39 +130,45 @@ def _search_ints(net: Net, readers: list[tuple[int, ...]], rank: list[int], max_
     fired = [0] * len(net.transitions)
     head = 0
     complete = True
+    # locals, not attribute look-ups, in the loop that runs once per arc
+    index_get, order_append = index.get, order.append
+    src_append, dst_append, trs_append = src.append, dst.append, trs.append
+    by_rank = rank.__getitem__
+    moves = [(~pre[t], post[t]) for t in range(len(net.transitions))]
+    looked_up = sum(1 << p for p, ts in enumerate(readers) if ts)  # places some t is under
     while head < len(order):
         m = order[head]
         if not arcs:
             degree.append(0)
         candidates: list[int] = []
-        bits = m
+        bits = m & looked_up
         while bits:  # each marked place: the transitions looked up by it
             low = bits & -bits
             candidates += readers[low.bit_length() - 1]
             bits ^= low
-        if len(candidates) > 1:
-            candidates.sort(key=rank.__getitem__)
-        for t in candidates:
-            if m & pre[t] != pre[t]:
-                continue
-            rest = m & ~pre[t]
-            if rest & post[t]:
+        enabled = [t for t in candidates if m & pre[t] == pre[t]]
+        if len(enabled) > 1:
+            enabled.sort(key=by_rank)
+        for t in enabled:
+            off, on = moves[t]
+            rest = m & off
+            if rest & on:
                 return None  # a second token in a place: not 1-safe
-            n = rest | post[t]
-            j = index.get(n)
+            n = rest | on
+            j = index_get(n)
             if j is None:
-                if len(order) >= max_markings or \
-                        len(order) * per + len(src) * per_arc > max_bytes:
+                j = len(order)
+                if j >= max_markings or j * per + len(src) * per_arc > max_bytes:
                     complete = False
                     break
-                j = index[n] = len(order)
-                order.append(n)
+                index[n] = j
+                order_append(n)
                 parent.append(head)
                 parent_t.append(t)
             if arcs:
-                src.append(head)
-                dst.append(j)
-                trs.append(t)
+                src_append(head)
+                dst_append(j)
+                trs_append(t)
             else:
                 degree[head] += 1
                 fired[t] += 1
