@@ -135,7 +135,7 @@ def load_digests() -> None:
         return
     try:
         with open(place / DIGESTS, "rb") as f:
-            kept = marshal.load(f) if mine(f.fileno()) else {}
+            kept = marshal.loads(f.read()) if mine(f.fileno()) else {}
         if isinstance(kept, dict):
             FILE_DIGESTS.update((k, v) for k, v in kept.items() if k not in FILE_DIGESTS
                                 and isinstance(k, tuple) and isinstance(v, bytes))

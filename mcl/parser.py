@@ -7,7 +7,6 @@ wrong in the same way); the same table is exercised by the tests.
 
 from __future__ import annotations
 
-import difflib
 import os
 import stat
 from collections.abc import Iterator
@@ -446,6 +445,8 @@ def check_depth(source: Source, tree: Tree[Token]) -> None:
 
 def suggest(name: str, candidates: list[str]) -> str:
     """' (did you mean X?)' for a close match, else ''."""
+    import difflib  # lazy for start-up speed: only a message with a suggestion needs it
+
     close = difflib.get_close_matches(name, candidates, n=1, cutoff=0.6)
     if not close:
         lowered = {c.lower(): c for c in candidates}
