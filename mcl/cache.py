@@ -183,6 +183,27 @@ def cached(name: str, parts: Callable[[], Iterable[str | bytes]], build: Callabl
     return value
 
 
+def lookup(name: str, parts: Iterable[str | bytes]) -> Any:
+    """What is kept under the entry ``name`` and the key of ``parts`` (:func:`put`), or None
+    (none, unreadable, another user's, or the cache off)."""
+    place = folder()
+    if place is None:
+        return None
+    try:
+        with open(place / f"{name}-{key(parts)}.pickle", "rb") as f:
+            return pickle.load(f) if mine(f.fileno()) else None
+    except Exception:  # noqa: BLE001 - absent, unreadable or partial: nothing kept
+        return None
+
+
+def put(name: str, parts: Iterable[str | bytes], value: Any) -> None:
+    """Keep ``value`` under the entry ``name`` and the key of ``parts``, replacing the entry
+    of the same name under another key (any failure keeps nothing)."""
+    place = folder()
+    if place is not None:
+        store(place / f"{name}-{key(parts)}.pickle", name, value, None)
+
+
 def prune(prefix: str, keep: int) -> None:
     """Remove all but the ``keep`` most recently written entries whose names start with
     ``prefix``: the kinds kept per file (syntax trees, verdicts) would otherwise grow with every
@@ -191,7 +212,12 @@ def prune(prefix: str, keep: int) -> None:
     if place is None:
         return
     try:
-        entries = sorted(place.glob(f"{prefix}*.pickle"), key=lambda p: p.stat().st_mtime_ns)
+        with os.scandir(place) as listing:  # names only: a stat each only when over
+            named = [e.name for e in listing
+                     if e.name.startswith(prefix) and e.name.endswith(".pickle")]
+        if len(named) <= keep:
+            return
+        entries = sorted((place / n for n in named), key=lambda p: p.stat().st_mtime_ns)
         for old in entries[:-keep] if keep > 0 else entries:
             old.unlink(missing_ok=True)
     except OSError:  # another process removed one first, or the folder is unreadable
@@ -218,9 +244,11 @@ def store(path: Path, name: str, value: Any, save: Callable[[Any, IO[bytes]], No
             else:
                 pickle.dump(value, f, protocol=pickle.HIGHEST_PROTOCOL)
         os.replace(partial, path)
-        for old in path.parent.glob(f"{name}-*.pickle"):
-            if old != path:
-                old.unlink(missing_ok=True)
+        with os.scandir(path.parent) as listing:  # names only (glob: 3 ms of a full folder)
+            older = [e.name for e in listing if e.name.startswith(f"{name}-")
+                     and e.name.endswith(".pickle") and e.name != path.name]
+        for old in older:
+            (path.parent / old).unlink(missing_ok=True)
     except Exception:  # noqa: BLE001 - unwritable, full, or not picklable: no entry
         try:
             partial.unlink(missing_ok=True)

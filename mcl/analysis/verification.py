@@ -96,7 +96,10 @@ def _verify(compiled: Compiled, method: str, max_markings: int, max_bytes: int,
         explicit = not (limit < 1 or explicit_cost(net, estimate) > max_bytes
                         or estimate > limit)
     start = time.perf_counter()
-    found = explored(net, limit, max_bytes) if explicit else None  # small and safe: searched
+    try:
+        found = explored(net, limit, max_bytes) if explicit else None  # small and safe
+    except MemoryError:  # the explicit route below meets it again and says so
+        found = None
     if found is not None and not keep_graph:  # every property holds: decided without numpy
         quick = all_hold(net, found, termination.result(checked))
         if quick is not None:
@@ -107,12 +110,11 @@ def _verify(compiled: Compiled, method: str, max_markings: int, max_bytes: int,
     from mcl.analysis import structural
     from petri.verification.properties import verify
 
-    space = state_space(net, found) if found is not None else None  # not searched again
-
     def terminates(g: ReachabilityGraph, how: str, cut: str) -> Result:
         return termination.result(checked, how, g)  # the worst case decides, cut or not
 
     def explicit_route() -> Verdict:
+        space = state_space(net, found) if found is not None else None  # not searched again
         verdict = verify(net, max_markings=limit, keep_graph=keep_graph,
                          termination=terminates, max_bytes=max_bytes, space=space)
         verdict.seconds = time.perf_counter() - start
