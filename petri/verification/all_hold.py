@@ -4,10 +4,10 @@ holds, decided in Python's own containers, without numpy.
 What a user pays who edits a mission and checks it (``mclc``): the explicit route
 (petri/verification/properties.py) keeps its graph in numpy arrays, and importing numpy costs
 more CPU than exploring and deciding a mission of a few thousand markings (the dam mission:
-3,155 markings, 12,091 arcs). So a net of at most :data:`MAX_PLACES` places is first explored
-by :func:`petri.verification.explore_bits.search` (markings as integers, a bit per place), up
-to :data:`MAX_MARKINGS` markings, and each property decided on that graph as the explicit route
-decides it when it holds:
+3,155 markings, 12,091 arcs). So a 1-safe net of at most :data:`MAX_PLACES` places is first
+searched by :func:`petri.verification.explore_bits.search` (markings as integers, a bit per
+place: :func:`explored`), and on a graph of at most :data:`MAX_MARKINGS` markings each property
+is decided as the explicit route decides it when it holds (:func:`all_hold`):
 
 * one-safe: the search gives up on a second token in a place;
 * proper-completion, no-deadlock, behaviours-off-at-end, behaviour-single-owner,
@@ -23,9 +23,9 @@ decides it when it holds:
 Every property that holds is said in the explicit route's words (petri/verification/verdict.py
 ``HOLDS``), with its method. Where one does not hold (a violation needs its counterexample,
 the shortest firing sequence or a lasso, and maybe the timed model), where the exploration is
-cut, or where the net is not for it (wider, not 1-safe, larger), :func:`all_hold` returns
-None and the caller takes the explicit route, which decides the same properties on the same
-graph (breadth-first numbers alike): the verdicts are the same
+cut, or where the net is not for it (wider, not 1-safe, larger), the caller takes the explicit
+route, on the same graph when it was searched (:func:`state_space`: not searched twice), which
+decides the same properties on it: the verdicts are the same
 (tests/petri/verification/test_all_hold.py compares them).
 """
 
