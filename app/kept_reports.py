@@ -7,12 +7,13 @@ A report is kept for a call on one mission file (``.mcl``, not a fleet) that wri
 once its verdict came from the verdict cache (mcl/analysis/verdicts.py): what that call printed
 (its standard output, its standard error and its exit status) is what every later call with
 the same inputs prints, so a report replayed says ``cached`` as the verdict it shows was. Its
-key (mcl/cache.py) is every input of the report: the arguments and the working folder, the
-contents of the mission file and of each ``--tasks`` and ``--params`` file, the shipped task
-libraries, the sources of the packages that make the report (``app``, ``mission``, ``mcl``,
-``petri``, ``aal``, ``diagnostics``), ``MCL_DOCS_URI`` and Python's version. A mission that
-names its libraries (``USES``) is not kept: which files it reads is known only once parsed.
-One report is kept per mission file, for the :data:`KEEP` files checked last.
+key (mcl/cache.py) is every input of the report: the command (``mclc``, ``mcl check``), its
+arguments and the working folder, the contents of the mission file and of each ``--tasks``
+and ``--params`` file, the shipped task libraries, the sources of the packages that make the
+report (``app``, ``mission``, ``mcl``, ``petri``, ``aal``, ``diagnostics``), ``MCL_DOCS_URI``
+and Python's version. A mission that names its libraries (``USES``) is not kept: which files
+it reads is known only once parsed. One report is kept per mission file and arguments, for
+the :data:`KEEP` calls kept last.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ SHIPPED_TASKS = Path(__file__).resolve().parents[1] / "mcl" / "tasks"
 FILE_OPTIONS = ("dot", "dot_tasks", "pnml", "net_json", "graphml")
 
 
-def kept_key(args: argparse.Namespace, argv: list[str], fmt: str
+def kept_key(args: argparse.Namespace, argv: list[str], fmt: str, prog: str = "mclc"
              ) -> tuple[str, list[str | bytes]] | None:
     """The entry's name and the parts of its key, for a call whose report may be kept; None
     for one whose may not (see the module's docstring)."""
@@ -46,17 +47,17 @@ def kept_key(args: argparse.Namespace, argv: list[str], fmt: str
     path = args.files[0]
     if not path.endswith(".mcl"):
         return None
+    files = [path, *args.tasks, *args.params]
     try:
-        if not os.path.isfile(path):  # a pipe is read once
+        if not all(os.path.isfile(f) for f in files):  # a pipe is read once: by the check
             return None
-        text = Path(path).read_bytes()
-        inputs = [Path(p).read_bytes() for p in [*args.tasks, *args.params]]
+        text, *inputs = [Path(f).read_bytes() for f in files]
     except OSError:
         return None
     if b"FLEET" in text or b"USES" in text:  # a fleet, or libraries of its own
         return None
     shipped = sorted(SHIPPED_TASKS.glob("*.tasks"))
-    parts: list[str | bytes] = [FORMAT, repr(argv), os.getcwd(), text, *inputs,
+    parts: list[str | bytes] = [FORMAT, prog, repr(argv), os.getcwd(), text, *inputs,
                                 *[p.read_bytes() for p in shipped],
                                 os.environ.get("MCL_DOCS_URI", ""),
                                 cache.code_digest(REPORT_CODE)]

@@ -130,7 +130,7 @@ def main(argv: list[str] | None = None, prog: str = "mclc") -> int:
 def _main(argv: list[str] | None, so_far: list[Exit], prog: str) -> int:
     args = _parser(prog).parse_args(argv)
     fmt = "json" if args.json else (args.format or "text")
-    kept = kept_reports.kept_key(args, sys.argv[1:] if argv is None else argv, fmt)
+    kept = kept_reports.kept_key(args, sys.argv[1:] if argv is None else argv, fmt, prog)
     if kept is not None and (replayed := kept_reports.replay(*kept)) is not None:
         return replayed  # what the same call printed before (app/kept_reports.py)
     # Lazy for start-up speed: a kept report needs neither the compiler nor the verifier.
@@ -159,7 +159,7 @@ def _main(argv: list[str] | None, so_far: list[Exit], prog: str) -> int:
         worst, reports = check_files(args, fmt, so_far)
     if kept is not None and worst != Exit.INTERNAL and reports[0].get(
             "verification", {}).get("cached") and kept_reports.kept_key(
-            args, sys.argv[1:] if argv is None else argv, fmt) == kept:  # unchanged since
+            args, sys.argv[1:] if argv is None else argv, fmt, prog) == kept:  # unchanged
         kept_reports.keep(*kept, out.copy.getvalue(), err.copy.getvalue(), worst)
     return worst
 
