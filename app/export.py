@@ -38,7 +38,7 @@ from petri.execution.runlog import LogError, read_log, verify
 
 from app import arguments
 from app.guard import guarded
-from app.mclc import OutputError, check_output
+from app.outputs import OutputError, check_output
 
 MAX_ATTACHED = 4 * 1024 * 1024  # bytes: the largest mission or task library attached
 MAX_MOSAIC = 64 * 1024 * 1024  # bytes: the largest mosaic attached (the dam's: 5.5 MB)

@@ -38,7 +38,7 @@ from mission.vehicle import Vehicle
 from petri.execution.runner import MissionClock
 from petri.execution.signing import Signer
 
-from app.mclc import check_output
+from app.outputs import check_output
 from app.safe_exit import Output, ReportCut, Stops
 from app.vehicles.kind import Invalid
 

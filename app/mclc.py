@@ -4,36 +4,26 @@ Its exit statuses are those of every command, from the one table (``mission.exit
 documented in docs/EXIT.md): ``OK`` every file verified, ``FAILED`` a property fails,
 ``INVALID`` invalid input, ``INTERNAL`` a bug in mclc, ``UNDECIDED`` nothing fails but some
 property could not be established. With several files, the worst (:data:`SEVERITY`).
+The files written besides the report are checked by app/outputs.py.
 """
 
 from __future__ import annotations
 
 import argparse
-import errno
-import json
 import os
-import stat
 import sys
-from collections.abc import Callable
-from pathlib import Path
-from typing import Any
 
-from diagnostics import Diagnostic, MclError, Span, read_source
-from mcl.api import Compiled, compile_source, parse_params
-from mcl.fleet import is_fleet
-from mcl.parser import trees_kept
-
+from app import kept_reports
 from app.arguments import memory_size
-from app.fleet_check import check_fleet
-from app.mission_report import SEVERITY, diag_json, verify_and_report
 from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
 from app.version import VersionAction
 from app import arguments
-from mission.exits import Exit  # the exit statuses of every command: docs/EXIT.md
+from mission.exits import SEVERITY, Exit  # the exit statuses of every command: docs/EXIT.md
 
+# What a call checks and prints is in app/mclc_files.py, loaded only when no report kept from
+# an earlier call answers it (app/kept_reports.py): the kept one needs no compiler.
 # With several files, mclc exits with the worst status: internal, invalid, failed, undecided,
 # ok (docs/EXIT.md).
-PNML_FILES = (".pnml", ".tgz")  # a Petri net: PNML, or a Model Checking Contest archive
 
 
 def _parser(prog: str = "mclc") -> argparse.ArgumentParser:
@@ -110,55 +100,6 @@ def _positive(text: str) -> int:
     return value
 
 
-class OutputError(MclError):
-    """An output file that cannot be written (a directory, a missing folder, no permission):
-    invalid input, reported on one line that starts with the file."""
-
-    def __init__(self, path: str, option: str, reason: str):
-        where = path or f"{option} ''"
-        super().__init__(f"cannot write it ({option}): {reason}", span=Span.of_file(where),
-                         hint="give the path of a file in a folder that exists and that "
-                              "you may write to", code="unwritable-output")
-
-
-def write_output(path: str, option: str, write: Callable[[str], None]) -> None:
-    """``write(path)``, turning every way writing can fail into an :class:`OutputError`."""
-    check_output(path, option)
-    try:
-        write(path)
-    except OSError as exc:
-        raise OutputError(path, option, exc.strerror or str(exc)) from None
-
-
-def unread_pipe(path: Path) -> bool:
-    """Whether ``path`` is a named pipe that no process has open to read (opening it to write
-    would wait for one for ever); ``/dev/stdout`` into a pipe has its reader."""
-    try:
-        if not stat.S_ISFIFO(path.stat().st_mode):
-            return False
-        os.close(os.open(path, os.O_WRONLY | os.O_NONBLOCK))
-    except OSError as exc:
-        return exc.errno == errno.ENXIO  # the pipe has no reader
-    return False
-
-
-def check_output(path: str, option: str) -> None:
-    """Refuse, before any work, an output path that cannot be a file: empty, a directory, in
-    a folder that does not exist or is not a folder."""
-    if not path:
-        raise OutputError(path, option, "an empty path")
-    target = Path(path)
-    if target.is_dir():
-        raise OutputError(path, option, "is a directory")
-    if unread_pipe(target):
-        raise OutputError(path, option, "a named pipe nobody reads: writing would wait for ever")
-    folder = target.parent
-    if not folder.exists():
-        raise OutputError(path, option, f"no folder {str(folder)!r}")
-    if not folder.is_dir():
-        raise OutputError(path, option, f"{str(folder)!r} is not a folder")
-
-
 def one_blas_thread() -> None:
     """Ask OpenBLAS for one thread, unless the user chose a number or numpy is loaded already.
     mclc does no linear algebra, and the pool OpenBLAS starts when numpy loads (numpy comes
@@ -175,7 +116,7 @@ def main(argv: list[str] | None = None, prog: str = "mclc") -> int:
     open_standard_streams()
     worst = [Exit.OK]
     try:
-        with watched_stdout(), trees_kept():  # mclc parses the same files call after call
+        with watched_stdout():
             return _main(argv, worst, prog)
     except BrokenPipeError as exc:
         stdout_closed()
@@ -189,7 +130,13 @@ def main(argv: list[str] | None = None, prog: str = "mclc") -> int:
 def _main(argv: list[str] | None, so_far: list[Exit], prog: str) -> int:
     args = _parser(prog).parse_args(argv)
     fmt = "json" if args.json else (args.format or "text")
+    kept = kept_reports.kept_key(args, sys.argv[1:] if argv is None else argv, fmt, prog)
+    if kept is not None and (replayed := kept_reports.replay(*kept)) is not None:
+        return replayed  # what the same call printed before (app/kept_reports.py)
+    # Lazy for start-up speed: a kept report needs neither the compiler nor the verifier.
+    from app.mclc_files import check_files
     from app.reports.duration import parse_limits
+    from mcl.parser import trees_kept
 
     try:
         args.limits = parse_limits(args.deadline, args.battery, args.reserve)
@@ -206,146 +153,15 @@ def _main(argv: list[str] | None, so_far: list[Exit], prog: str) -> int:
               f"{'--no-verify' if args.no_verify else 'the structural route'} explores none: "
               "use --method explicit", file=sys.stderr)
         return Exit.INVALID
-    reports: list[dict[str, Any]] = []
-    worst = Exit.OK
-    for path in args.files:
-        try:
-            status, report = _one(path, args, fmt)
-        except OutputError as exc:  # before MclError: its report names the output file
-            status, report = Exit.INVALID, {"file": path, "status": "invalid",
-                                            "message": str(exc).splitlines()[0]}
-            print(exc, file=sys.stderr)
-        except MclError as exc:
-            status, report = Exit.INVALID, _invalid(path, exc.diagnostics)
-            print(exc.format(), file=sys.stderr)
-        except BrokenPipeError:
-            raise
-        except Exception as exc:  # a bug of ours: say so plainly, never a bare traceback
-            if args.debug:
-                import traceback  # lazy for start-up speed: only for --debug (3 ms)
-
-                traceback.print_exc()
-            print(f"{path}: internal error: {type(exc).__name__}: {exc}\n"
-                  "  hint: this is a bug in mclc; rerun with --debug and report it",
-                  file=sys.stderr)
-            status, report = Exit.INTERNAL, {"file": path, "status": "internal-error",
-                                             "message": str(exc)}
-        reports.append(report)
-        worst = max(worst, status, key=SEVERITY.index)
-        so_far[0] = worst
-    if fmt == "json":
-        print(json.dumps(reports[0] if len(reports) == 1 else reports, indent=2))
-    elif fmt in ("junit", "sarif", "github"):
-        from app.reports import formats
-
-        print(getattr(formats, fmt)(formats.flat(reports)))
-    sys.stdout.flush()
+    # trees: mclc parses the same files call after call; the output: to keep it, for a call
+    # that may be kept
+    with trees_kept(), kept_reports.recorded(kept is not None) as (out, err):
+        worst, reports = check_files(args, fmt, so_far)
+    if kept is not None and worst != Exit.INTERNAL and reports[0].get(
+            "verification", {}).get("cached") and kept_reports.kept_key(
+            args, sys.argv[1:] if argv is None else argv, fmt, prog) == kept:  # unchanged
+        kept_reports.keep(*kept, out.copy.getvalue(), err.copy.getvalue(), worst)
     return worst
-
-
-def _invalid(path: str, diagnostics: list[Diagnostic]) -> dict[str, Any]:
-    return {"file": path, "status": "invalid",
-            "diagnostics": [diag_json(d) for d in diagnostics]}
-
-
-def _one(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str, Any]]:
-    if args.graphml is not None:
-        check_output(args.graphml, "--graphml")
-    if is_fleet(path):
-        return check_fleet(path, args, fmt)
-    if args.method == "compositional":
-        raise MclError("--method compositional proves a fleet, and this file is not one",
-                       span=Span.of_file(path), hint="use auto, explicit or structural for "
-                       "a mission or a net", code="fleet-option")
-    if path.lower().endswith(PNML_FILES):
-        return _pnml(path, args, fmt)
-    params = parse_params(args.param, args.params)
-    source = read_source(path)
-    if is_fleet(source):  # a pipe (mclc <(...)) is read once: its first word says which
-        return check_fleet(source, args, fmt)
-    compiled = compile_source(source, args.tasks or None, params)
-    _write_outputs(compiled, args)
-    return verify_and_report(compiled, args, fmt, _write_graph)
-
-
-def _write_outputs(compiled: Compiled, args: argparse.Namespace) -> None:
-    net = compiled.net
-
-    def to_dot(net: Any, view: str) -> str:
-        from petri.formats.dot import to_dot as dot  # lazy for start-up speed: --dot only
-
-        return dot(net, view)
-
-    def text(content: Callable[[], str]) -> Callable[[str], None]:
-        def write(path: str) -> None:
-            Path(path).write_text(content(), encoding="utf-8")
-        return write
-
-    outputs: list[tuple[str | None, str, Callable[[str], None]]] = [
-        (args.dot, "--dot", text(lambda: to_dot(net, "full"))),
-        (args.dot_tasks, "--dot-tasks", text(lambda: to_dot(net, "tasks"))),
-        (args.pnml, "--pnml", lambda path: _write_pnml(net, path)),
-        (args.net_json, "--net-json", text(lambda: json.dumps(net.to_dict(), indent=1,
-                                                           allow_nan=False))),  # strict JSON
-    ]
-    for path, option, _ in outputs:  # every path checked before anything is written
-        if path is not None:
-            check_output(path, option)
-    for path, option, write in outputs:
-        if path is not None:
-            write_output(path, option, write)
-
-
-def _pnml(path: str, args: argparse.Namespace, fmt: str) -> tuple[Exit, dict[str, Any]]:
-    """``mclc NET.pnml`` (or a contest ``.tgz``): the state-space report of a P/T net
-    (explicit with ``--method explicit``, else explicit or symbolic, whichever fits)."""
-    from app.reports.pnml import pnml_text
-    from petri.formats.pnml import PnmlError
-    from petri.verification.pnml_report import analyse_graph, load_net
-
-    try:
-        net = load_net(path)
-    except PnmlError as exc:
-        print(exc, file=sys.stderr)
-        return Exit.INVALID, {"file": path, "status": "invalid", "diagnostics": [
-            {"severity": "error", "message": exc.message, "hint": None, "code": "pnml",
-             "file": exc.path or path, "line": exc.line, "col": exc.col}]}
-    method = "explicit" if args.method == "explicit" else "auto"
-    analysis, space = analyse_graph(net, method, arcs=args.graphml is not None,
-                                    max_bytes=args.max_memory)
-    if args.graphml is not None:
-        _write_graph(path, args.graphml, net, space, "--method auto took the symbolic search")
-    report = {"file": path, "status": "analysed", **analysis}
-    if fmt == "text":
-        print(f"{path}:")
-        print(pnml_text(report))
-        if args.graphml is not None:
-            print(f"wrote reachability graph to {args.graphml}")
-    if not analysis["complete"]:  # a limit (markings, tokens, memory) cut the search
-        report["status"] = "undecided"
-        return Exit.UNDECIDED, report
-    return Exit.OK, report
-
-
-def _write_graph(source: str, target: str, net: Any, space: Any, route: str) -> None:
-    """``--graphml``: the reachability graph the verification explored, or a one-line error
-    saying why there is none (``route``: what was taken instead) or why it is not written."""
-    from petri.formats.graphml import GraphTooLarge, write_graphml
-
-    if space is None:
-        raise MclError(f"--graphml: {route}, which explores no reachability graph; --method "
-                       "explicit gives one", span=Span.of_file(source), code="no-graph")
-    try:
-        write_output(target, "--graphml", lambda out: write_graphml(net, space, out))
-    except GraphTooLarge as exc:
-        raise MclError(f"--graphml: {exc}", span=Span.of_file(source),
-                       code="graph-too-large") from None
-
-
-def _write_pnml(net: Any, path: str) -> None:
-    from petri.formats.pnml import write_pnml
-
-    write_pnml(net, path)
 
 
 if __name__ == "__main__":

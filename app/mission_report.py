@@ -17,9 +17,9 @@ from mcl.analysis import verdicts
 from mcl.api import Compiled
 from petri.net import Net
 
+from mission.exits import SEVERITY as SEVERITY  # worst last (mclc's, fleet_check's)
 from mission.exits import Exit
 
-SEVERITY = [Exit.OK, Exit.UNDECIDED, Exit.FAILED, Exit.INVALID, Exit.INTERNAL]  # worst last
 GraphWriter = Callable[[str, str, Net, Any, str], None]  # mclc's --graphml writer
 
 

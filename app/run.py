@@ -53,7 +53,7 @@ from petri.execution.signing import Signer
 
 from app import arguments, fleet_run, fleet_zenoh, foxglove, vehicles
 from app.guard import guarded
-from app.mclc import OutputError, check_output, unread_pipe
+from app.outputs import OutputError, check_output, unread_pipe
 from app.monitor import task_detail
 from app.safe_exit import Output, ReportCut, Stops
 

@@ -52,6 +52,8 @@ def printable(line: str) -> str:
 
 @dataclass(frozen=True)
 class Diagnostic:
+    """One message about a source: its severity, what is wrong, where, and what to do."""
+
     severity: str  # "error" | "warning" | "note"
     message: str
     span: Span | None = None

@@ -14,6 +14,8 @@ from mcl import ast, checker, compiler, parser, tasklib
 
 @dataclass
 class Compiled:
+    """A compiled mission: its syntax tree, the checked mission, its net and its source."""
+
     mission: ast.Mission
     checked: checker.Checked
     net: Net

@@ -17,6 +17,8 @@ _NOWHERE = Span("<none>", 0, 0)
 # -- values ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Number:
+    """A number with its unit, if any: ``1.5 m``, ``90 deg``, ``3``."""
+
     value: float
     unit: str | None = None
     span: Span = field(default=_NOWHERE, compare=False)
@@ -32,12 +34,16 @@ class Ref:
 
 @dataclass(frozen=True)
 class ListValue:
+    """A list of values: ``[a, b, c]``."""
+
     items: tuple[Value, ...]
     span: Span = field(default=_NOWHERE, compare=False)
 
 
 @dataclass(frozen=True)
 class Point:
+    """A point or pose: ``(x, y, z)``, ``(x, y, z, heading)``."""
+
     items: tuple[Value, ...]
     span: Span = field(default=_NOWHERE, compare=False)
 
@@ -49,6 +55,8 @@ WORDS = ("enable", "disable")
 # -- blocks ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Arg:
+    """One argument of a task call, positional or named (``timeout = 2 min``)."""
+
     value: Value
     name: str | None = None  # for named arguments such as timeout = 2 min
     span: Span = field(default=_NOWHERE, compare=False)
@@ -73,6 +81,8 @@ class Sequence:
 
 @dataclass(frozen=True)
 class TryCatchDo:
+    """``TRY { try_ } CATCH { catch } DO { do }``."""
+
     try_: Block
     catch: Block
     do: Block
@@ -81,18 +91,24 @@ class TryCatchDo:
 
 @dataclass(frozen=True)
 class ParallelAnd:
+    """``PARALLEL { a } AND { b } ...``: every branch must end ok."""
+
     branches: tuple[Block, ...]
     span: Span = field(default=_NOWHERE, compare=False)
 
 
 @dataclass(frozen=True)
 class ParallelOr:
+    """``PARALLEL { a } OR { b } ...``: the first branch to end decides."""
+
     branches: tuple[Block, ...]
     span: Span = field(default=_NOWHERE, compare=False)
 
 
 @dataclass(frozen=True)
 class IfThenElse:
+    """``IF { condition } THEN { then } ELSE { else_ }`` (``else_`` may be absent)."""
+
     condition: Block
     then: Block
     else_: Block | None
@@ -101,6 +117,8 @@ class IfThenElse:
 
 @dataclass(frozen=True)
 class WhileDo:
+    """``WHILE { condition } DO { body }``."""
+
     condition: Block
     body: Block
     span: Span = field(default=_NOWHERE, compare=False)
@@ -128,6 +146,9 @@ class Uses:
 
 @dataclass(frozen=True)
 class Mission:
+    """A mission: its name, its parameters, its body, the task libraries it uses and its stop
+    handler (``ON STOP``), if any."""
+
     name: str | None
     body: Block
     params: tuple[Param, ...] = ()

@@ -37,6 +37,8 @@ class _Use:
 
 @dataclass(frozen=True)
 class Resolved:
+    """A task call resolved against its library: the task form it calls and its arguments."""
+
     form: TaskForm
     args: dict[str, ast.Value]  # formal name -> value given (or its default)
     timeout: ast.Value | None = None  # a per-call timeout (named argument timeout = ...)
@@ -44,6 +46,8 @@ class Resolved:
 
 @dataclass
 class Checked:
+    """A mission checked against its task libraries, with what the checks resolved."""
+
     mission: ast.Mission
     library: Library
     source: Source

@@ -19,8 +19,6 @@ resolve in mcl/fleet_tasks.py.
 from __future__ import annotations
 
 import math
-import os
-import stat
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -28,6 +26,7 @@ from diagnostics import Diagnostic, MclError, Source, Span, read_source
 from petri.net import Origin
 
 from mcl import ast, checker, compiler, parser, printer
+from mcl.parser import is_fleet as is_fleet  # where it is decided (mclc loads no fleet code)
 from mcl.analysis import duration
 from mcl.api import Compiled, library_of
 from mcl.fleet_tasks import FleetScope
@@ -80,21 +79,6 @@ class CompiledFleet:
         return [d for c in self.vehicles.values() for d in c.warnings]
 
 
-def is_fleet(path_or_source: str | Source) -> bool:
-    """Whether a file (a path, or its source) is a fleet: its first word is FLEET. A file
-    that cannot be read is not one (reading it again reports why), nor is one that is not a
-    regular file: a named pipe (``mclc <(...)``) can be read only once, so ask of its source."""
-    if isinstance(path_or_source, Source):
-        text = path_or_source.text
-    else:
-        try:
-            if not stat.S_ISREG(os.stat(path_or_source).st_mode):
-                return False
-            with open(path_or_source, encoding="utf-8", errors="replace") as f:
-                text = f.read(65536)
-        except (OSError, ValueError):  # ValueError: a path with a NUL byte
-            return False
-    return parser.first_word(text) == "FLEET"
 
 
 Params = dict[str, dict[str, tuple[ast.Value, Source]]]  # vehicle -> parameter -> value

@@ -7,8 +7,8 @@ wrong in the same way); the same table is exercised by the tests.
 
 from __future__ import annotations
 
-import difflib
 import os
+import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
 from functools import lru_cache
@@ -299,6 +299,23 @@ def _fleet_mistake(source: Source, token: Token, previous: Token | None,
     return None
 
 
+def is_fleet(path_or_source: str | Source) -> bool:
+    """Whether a file (a path, or its source) is a fleet: its first word is FLEET. A file
+    that cannot be read is not one (reading it again reports why), nor is one that is not a
+    regular file: a named pipe (``mclc <(...)``) can be read only once, so ask of its source."""
+    if isinstance(path_or_source, Source):
+        text = path_or_source.text
+    else:
+        try:
+            if not stat.S_ISREG(os.stat(path_or_source).st_mode):
+                return False
+            with open(path_or_source, encoding="utf-8", errors="replace") as f:
+                text = f.read(65536)
+        except (OSError, ValueError):  # ValueError: a path with a NUL byte
+            return False
+    return first_word(text) == "FLEET"
+
+
 def first_word(text: str) -> str:
     """The first word of MCL text, comments skipped (``FLEET`` for a fleet file)."""
     i, n = 0, len(text)
@@ -428,6 +445,8 @@ def check_depth(source: Source, tree: Tree[Token]) -> None:
 
 def suggest(name: str, candidates: list[str]) -> str:
     """' (did you mean X?)' for a close match, else ''."""
+    import difflib  # lazy for start-up speed: only a message with a suggestion needs it
+
     close = difflib.get_close_matches(name, candidates, n=1, cutoff=0.6)
     if not close:
         lowered = {c.lower(): c for c in candidates}

@@ -44,6 +44,9 @@ FIELDS = ("x", "y", "z", "yaw")  # the fields of a point, in order
 
 @dataclass(frozen=True)
 class Problem:
+    """A value that does not fit what it is given for: why, the value, and the parameter it came
+    from."""
+
     message: str
     node: ast.Value
     param: str | None = None  # the mission parameter whose value it is, if any

@@ -31,6 +31,10 @@ class Exit(IntEnum):
     #                 nothing was sent
 
 
+# mclc's statuses from best to worst: with several files, it exits with the worst
+SEVERITY = [Exit.OK, Exit.UNDECIDED, Exit.FAILED, Exit.INVALID, Exit.INTERNAL]
+
+
 def signalled(signum: int) -> int:
     """The exit status of a command stopped by signal ``signum``: 128 + N."""
     return SIGNAL_BASE + int(signum)

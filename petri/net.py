@@ -83,6 +83,9 @@ STOP_HANDLER = "stop-handler"
 
 @dataclass(frozen=True)
 class Place:
+    """A place of the net: its name, the behaviours a token in it keeps on, where it comes
+    from and its role."""
+
     name: str
     # Behaviours that are switched on while this place holds a token (a running task's
     # place, or a latched behaviour's "on" place).
@@ -93,6 +96,9 @@ class Place:
 
 @dataclass(frozen=True)
 class Transition:
+    """A transition of the net: its input and output arcs, what fires it (an event, a timer, or
+    nothing: immediate) and the actions it sends."""
+
     name: str
     inputs: tuple[tuple[int, int], ...]  # (place index, weight)
     outputs: tuple[tuple[int, int], ...]
@@ -110,6 +116,9 @@ class Transition:
 
 @dataclass
 class Net:
+    """A place/transition net (one compiled from a mission, or read from PNML): its places,
+    transitions, initial and final markings, and the degrees of freedom of its behaviours."""
+
     name: str
     places: list[Place] = field(default_factory=list)
     transitions: list[Transition] = field(default_factory=list)

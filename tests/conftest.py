@@ -80,6 +80,7 @@ SECONDS: dict[str, float] = {
     "tests/vehicle/servers/test_ardusub.py": 13,
     "tests/app/test_run_foxglove.py": 13,
     "tests/app/test_run_progress.py": 12,
+    "tests/app/test_kept_reports.py": 10,  # mclc three times a case, in fresh processes
     "tests/mission/test_stop_handler.py": 9,
     "tests/app/test_bad_input.py": 9,
     "tests/petri/test_counterexamples.py": 9,

@@ -14,7 +14,8 @@ awaited event and timer may happen, branches interleave freely, and latches neve
 from __future__ import annotations
 
 from petri.verification.properties import Result, undecided
-from petri.verification.termination import INSTANT_OK, instant_text
+from petri.verification.termination import instant_text
+from petri.verification.verdict import INSTANT_OK
 
 from mcl import ast, printer
 from mcl.checker import Checked

@@ -20,15 +20,16 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import numpy as np
-from petri.verification.graph import ReachabilityGraph
-from petri.verification.properties import Result, undecided
-from petri.verification.termination import lasso_through
+from petri.verification.verdict import Result, undecided
 
 from mcl.analysis.duration import Durations, Path, Step, analyse, stop_handler
 from mcl.checker import Checked
 from mcl.quantities import seconds_text
+
+if TYPE_CHECKING:  # the explicit route's graph (numpy), given only to show a violation
+    from petri.verification.graph import ReachabilityGraph
 
 NAME = "terminates"
 STOP_NAME = "stop-ends"  # the stop handler ends by itself within a proved bound
@@ -113,6 +114,9 @@ def result(checked: Checked, how: str = "", g: ReachabilityGraph | None = None,
     if g is None:
         return Result(NAME, False, "error", message, method)
     if why.loop:
+        from petri.verification.termination import lasso_through  # lazy for start-up
+        # speed: numpy, which only a violation on the explicit route's graph needs
+
         found = lasso_through(g, transitions(g, f"WHILE@{why.line}:{why.col}.body_ok"))
         if found is not None:
             at, prefix, cycle = found
@@ -128,6 +132,9 @@ def transitions(g: ReachabilityGraph, suffix: str) -> list[int]:
 
 def waiting(g: ReachabilityGraph, message: str, method: str, start: list[int]) -> Result:
     """The shortest firing sequence that starts the task that may wait for ever."""
+    import numpy as np  # lazy for start-up speed: only a violation on the explicit route's
+    # graph needs it
+
     ss = g.ss
     fires = np.isin(ss.transition, start) & ~g.stop_arc & g.main[ss.src]
     goal = np.zeros(g.n, bool)

@@ -1,12 +1,14 @@
 """The verdicts mclc keeps between calls: a mission verified once is not verified again until
-its net, its checked mission, the options or the code that verifies change.
+its text, its task library, its parameters, the options or the code that verifies change.
 
 A verification (mcl/analysis/verification.py) is a function of the compiled mission — its net
-and the checked mission (the syntax tree, the task library, the parameters) — of the options
-(the method, the marking limit, the memory budget) and of the code that verifies (the ``mcl``,
-``petri``, ``aal`` and ``diagnostics`` packages). :func:`verified` keys an entry of the cache
-(mcl/cache.py) by all of these: the mission's objects as :func:`canonical` bytes, the options,
-and the packages' sources, so an entry is what verifying that key's inputs gives. A call that
+and the checked mission, themselves functions of the source (its name and text), the task
+library, the parameters' values and, for a fleet's vehicle, its channels — of the options (the
+method, the marking limit, the memory budget) and of the code that compiles and verifies (the
+``mcl``, ``petri``, ``aal`` and ``diagnostics`` packages). :func:`verified` keys an entry of the
+cache (mcl/cache.py) by all of these: what the mission is made from as :func:`canonical` bytes
+(:func:`mission_bytes`), the options, and the packages' sources, so an entry is what verifying
+that key's inputs gives. A call that
 finds its entry loads the report (JSON text and two flags: no numpy, no search); one that does
 not verifies and stores it. The entry is named by the mission file's absolute path: writing
 one replaces that file's entry under an older key, so the cache holds one verdict per file,
@@ -19,7 +21,6 @@ key: both give the same verdicts (tests/petri/verification/test_explore_engines.
 
 from __future__ import annotations
 
-import dataclasses
 import io
 import json
 import os
@@ -34,10 +35,10 @@ if TYPE_CHECKING:
     from mcl.api import Compiled
     from petri.verification.verdict import Verdict
 
-# A mission's key is its objects serialised (mission_bytes): about 20 us a transition, which
-# on a net of this many transitions costs what verifying it does (the 10,000-waypoint
-# lawnmower, 110,026 transitions: 2.3 s to key, 2.2 s to verify; a thousand latched tasks,
-# 10,340: 0.2 s against 0.65 s). Larger missions are verified every call.
+# Larger missions are verified every call. The limit was set when a mission's key was its net
+# and checked mission serialised (about 20 us a transition: the 10,000-waypoint lawnmower,
+# 110,026 transitions, 2.3 s to key against 2.2 s to verify); the key is now what the mission
+# is made from (mission_bytes, a few ms), and the limit is left as it was.
 MAX_TRANSITIONS = 50_000
 KEEP = 500  # verdicts kept: those of the files verified last
 FORMAT = "verdict 1"  # bump when the entry's layout or the report's meaning changes
@@ -105,15 +106,15 @@ def verified(compiled: Compiled, method: str, max_markings: int, max_bytes: int,
 
 
 def mission_bytes(compiled: Compiled) -> bytes:
-    """The compiled mission as the verification sees it, as :func:`canonical` bytes: its net
-    and every compared field of the checked mission (``memo``, what the analyses computed, is
-    not compared). The checked mission's ``calls`` is keyed by ``id(call)``, which differs from
-    one process to the next: its values are taken, in their order (the mission's calls')."""
+    """What the compiled mission is made from, as :func:`canonical` bytes: the source's name
+    and text, the task library, the parameters' values and, for a fleet's vehicle, its
+    channels. Checking and compiling are functions of these (and of the code, in the key
+    beside), so they key the verdict as the net and the checked mission would, at a fraction
+    of the cost (a thousand latched tasks: 5 ms against 160 ms for the net and the checked
+    mission themselves)."""
     checked = compiled.checked
-    state = {f.name: getattr(checked, f.name) for f in dataclasses.fields(checked)
-             if f.compare}
-    state["calls"] = list(checked.calls.values())
-    return canonical((compiled.net, state))
+    return canonical((compiled.source.name, compiled.source.text, checked.library,
+                      checked.params, checked.fleet))
 
 
 def canonical(value: object) -> bytes:

@@ -19,15 +19,19 @@ Each property's ``method`` says which route established it.
 
 from __future__ import annotations
 
+import time
 from typing import TYPE_CHECKING
 
 from petri.net import Net
-from petri.verification.graph import ReachabilityGraph
-from petri.verification.properties import Result, Verdict, actions_match, undecided, verify
+from petri.verification.actions import actions_match
+from petri.verification.all_hold import all_hold, explored, state_space
+from petri.verification.verdict import Result, Verdict, undecided
 
-from mcl.analysis import structural, termination
+from mcl.analysis import size, termination
 
 if TYPE_CHECKING:
+    from petri.verification.graph import ReachabilityGraph
+
     from mcl.api import Compiled
 
 METHODS = ("auto", "explicit", "structural")
@@ -85,39 +89,62 @@ def _verify(compiled: Compiled, method: str, max_markings: int, max_bytes: int,
         raise ValueError(f"unknown method {method!r}: one of {', '.join(METHODS)}")
     net = compiled.net
     checked = compiled.checked
+    limit = marking_limit(net, max_markings, max_bytes)
+    explicit = method == "explicit" and limit >= 1
+    if method == "auto":
+        estimate = size.mission_estimate(checked)
+        explicit = not (limit < 1 or explicit_cost(net, estimate) > max_bytes
+                        or estimate > limit)
+    start = time.perf_counter()
+    try:
+        found = explored(net, limit, max_bytes) if explicit else None  # small and safe
+    except MemoryError:  # the explicit route below meets it again and says so
+        found = None
+    if found is not None and not keep_graph:  # every property holds: decided without numpy
+        quick = all_hold(net, found, termination.result(checked))
+        if quick is not None:
+            quick.seconds = time.perf_counter() - start
+            return quick
+    # Lazy for start-up speed: the explicit route's graph is numpy's, and the structural
+    # route loads it too, which the quick verdict above needs neither of.
+    from mcl.analysis import structural
+    from petri.verification.properties import verify
 
     def terminates(g: ReachabilityGraph, how: str, cut: str) -> Result:
         return termination.result(checked, how, g)  # the worst case decides, cut or not
 
+    def explicit_route() -> Verdict:
+        space = state_space(net, found) if found is not None else None  # not searched again
+        verdict = verify(net, max_markings=limit, keep_graph=keep_graph,
+                         termination=terminates, max_bytes=max_bytes, space=space)
+        verdict.seconds = time.perf_counter() - start
+        return verdict
+
     if method == "structural":
-        return structural.analyse(compiled.checked, net)
-    limit = marking_limit(net, max_markings, max_bytes)
+        return structural.analyse(checked, net)
     if method == "explicit":
         if limit < 1:
             return _too_big(net, max_bytes)
         try:
-            return verify(net, max_markings=limit, keep_graph=keep_graph,
-                          termination=terminates, max_bytes=max_bytes)
+            return explicit_route()
         except MemoryError:  # the estimate fell short: say so, never crash
             return _too_big(net, max_bytes, "ran out of memory")
-    estimate = structural.mission_estimate(compiled.checked)
     budget = f"{max_bytes / 2**20:,.0f} MiB"
-    if limit < 1 or explicit_cost(net, estimate) > max_bytes or estimate > limit:
+    if not explicit:
         why = (f"auto: about {estimate:,.0f} markings estimated, over the explicit route's "
                f"budget of {limit:,} markings ({budget})")
-        return structural.analyse(compiled.checked, net, note=why)
+        return structural.analyse(checked, net, note=why)
     try:
-        explicit = verify(net, max_markings=limit, keep_graph=keep_graph,
-                          termination=terminates, max_bytes=max_bytes)
+        done = explicit_route()
     except MemoryError:  # the estimate fell short: the structural route instead
-        return structural.analyse(compiled.checked, net, note=f"auto: the explicit route "
-                                  f"ran out of memory ({budget}): structural instead")
-    if not any(r.undecided for r in explicit.results if r.severity == "error"):
-        return explicit
-    cut = explicit.markings >= limit or any("CUT: " in r.method for r in explicit.results)
-    why = (f"auto: the explicit route stopped at {explicit.markings:,} markings "
+        return structural.analyse(checked, net, note=f"auto: the explicit route ran out of "
+                                  f"memory ({budget}): structural instead")
+    if not any(r.undecided for r in done.results if r.severity == "error"):
+        return done
+    cut = done.markings >= limit or any("CUT: " in r.method for r in done.results)
+    why = (f"auto: the explicit route stopped at {done.markings:,} markings "
            f"(limit {limit:,}, {budget})" if cut else "auto: undecided by the explicit route")
-    return merge(explicit, structural.analyse(compiled.checked, net, note=why), cut)
+    return merge(done, structural.analyse(checked, net, note=why), cut)
 
 
 def merge(explicit: Verdict, structural: Verdict, cut: bool = True) -> Verdict:

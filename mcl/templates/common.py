@@ -29,6 +29,8 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class Interface:
+    """A block's subnet as its parent sees it: its begin and abort places and its ends."""
+
     name: str
     begin: int
     abort: int
@@ -69,6 +71,9 @@ class Latch:
 
 @dataclass
 class Context:
+    """What the templates share while compiling one mission: the net being built and the
+    latches."""
+
     net: Net
     checked: Checked
     latches: dict[str, Latch] = field(default_factory=dict)

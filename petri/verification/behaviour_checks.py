@@ -1,6 +1,7 @@
 """The behaviours in a net's markings and transitions: which are on in each marking, which two
 places hold one at once, which two drive one degree of freedom together, and the static check
-that each firing sends the actions that switch them (``actions-match-behaviours``).
+that each firing sends the actions that switch them (``actions-match-behaviours``,
+:mod:`petri.verification.actions`, which needs no numpy).
 
 A behaviour is on in a marking when a place that records it (``Place.behaviours``) is marked.
 Behaviours are numbered by name: column i of :func:`behaviours_on` is ``behaviour_names(net)[i]``.
@@ -12,8 +13,11 @@ import numpy as np
 import numpy.typing as npt
 
 from petri.net import Net
+from petri.verification.actions import actions_match
 from petri.verification.graph import Marked, Mask, Rows
-from petri.verification.verdict import Result
+
+__all__ = ["actions_match", "behaviour_names", "behaviours_on", "dof_conflicts", "dof_groups",
+           "names_on", "shared_owner", "some_group"]
 
 
 def behaviour_names(net: Net) -> list[str]:
@@ -84,30 +88,3 @@ def dof_conflicts(net: Net, on: Mask) -> tuple[Rows, str]:
             row = on[bad.min()]
             what = f"{d} ({' and '.join(behaviours[c] for c in cols if row[c])})"
     return first, what
-
-
-def actions_match(net: Net) -> Result:
-    """A static check of each transition: a behaviour that a firing turns on (its output
-    places record it, its input places did not) must be enabled by the firing's actions, and
-    one it turns off must be disabled by them. This catches a forgotten stop action."""
-    for tr in net.transitions:
-        before = {b for p, _ in tr.inputs for b in net.places[p].behaviours}
-        after = {b for p, _ in tr.outputs for b in net.places[p].behaviours}
-        enabled = {a.behaviour for a in tr.actions if a.kind == "enable"}
-        disabled = {a.behaviour for a in tr.actions if a.kind == "disable"}
-        problem = ""
-        if missing := sorted((after - before) - enabled):
-            problem = f"switches {', '.join(missing)} on without an enable action"
-        elif missing := sorted((before - after) - disabled):
-            problem = f"switches {', '.join(missing)} off without a disable action"
-        elif stray := sorted(enabled - after):
-            problem = (f"enables {', '.join(stray)} but no place records it on: it stays on "
-                       "unseen (declare the task's behaviour as latched, or disable it in stop)")
-        if problem:
-            where = f"{tr.origin.where()} {tr.origin.text}: " if tr.origin else ""
-            return Result("actions-match-behaviours", False, "error",
-                          f"{where}transition {tr.name} {problem}",
-                          "static check of every transition")
-    return Result("actions-match-behaviours", True, "error",
-                  "every firing that turns a behaviour on or off sends the action that does it",
-                  "static check of every transition")

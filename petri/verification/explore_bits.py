@@ -22,8 +22,6 @@ import sys
 from array import array
 from typing import Any
 
-import numpy as np
-
 from petri.net import Net, triggers
 
 
@@ -46,21 +44,16 @@ def explore_bits(net: Net, max_markings: int, dense: bool = True, arcs: bool = T
     stops, incomplete with fewer than ``max_markings`` markings, where the next marking would
     take what it holds (:data:`HELD_PER_MARKING` and the marking itself, the dense array made
     at the end included) past ``max_bytes``."""
-    if any(w != 1 for tr in net.transitions for _, w in tr.inputs + tr.outputs) or \
-            any(n > 1 for n in net.initial.values()) or \
-            any(not tr.inputs for tr in net.transitions):  # a source fills a place twice
-        return None
-    n_trans = len(net.transitions)
-    inputs = [[p for p, _ in tr.inputs] for tr in net.transitions]
-    rank = [min(ins) * n_trans + t for t, ins in enumerate(inputs)]  # successor order
-    readers: list[tuple[int, ...]] = [() for _ in net.places]
-    for t, p in enumerate(triggers(net)):
-        readers[p] += (t,)  # examined when its most selective input is marked
+    found = search(net, max_markings, arcs, max_bytes)
+    return None if found is None else arrays(net, found, dense, arcs)
+
+
+def arrays(net: Net, found: Found, dense: bool = True, arcs: bool = True
+           ) -> tuple[object, ...]:
+    """What :func:`search` found as :func:`explore_bits` gives it (numpy arrays)."""
+    import numpy as np  # lazy for start-up speed: search() alone needs no numpy (mclc)
+
     wide = len(net.places) > WIDE
-    search = _search_sets if wide else _search_ints
-    found = search(net, readers, rank, max_markings, arcs, max_bytes)
-    if found is None:
-        return None
     order, src, dst, trs, parent, parent_t, head, complete, degree, fired = found
     counts: tuple[object, ...] = () if arcs else (
         np.asarray(degree + [0] * (len(order) - len(degree)), dtype=np.int32),
@@ -91,6 +84,31 @@ def explore_bits(net: Net, max_markings: int, dense: bool = True, arcs: bool = T
 
 Found = tuple[list[Any], "array[int]", "array[int]", "array[int]", "array[int]", "array[int]",
               int, bool, list[int], list[int]]
+"""What :func:`search` finds: the markings in breadth-first order (integers, one bit per
+place, on nets of at most :data:`WIDE` places; frozensets of marked places on wider ones), the
+arcs (src, dst, transition), each marking's parent and the transition fired from it, how many
+markings were expanded, whether the search is complete, and without arcs each marking's number
+of successors and each transition's number of firings."""
+
+
+def search(net: Net, max_markings: int, arcs: bool = True, max_bytes: float = math.inf
+           ) -> Found | None:
+    """The breadth-first search of :func:`explore_bits` in Python's own containers (no numpy:
+    what a small mission's verification needs), or None when the net is not 1-safe with unit
+    weights."""
+    if any(w != 1 for tr in net.transitions for _, w in tr.inputs + tr.outputs) or \
+            any(n > 1 for n in net.initial.values()) or \
+            any(not tr.inputs for tr in net.transitions):  # a source fills a place twice
+        return None
+    n_trans = len(net.transitions)
+    inputs = [[p for p, _ in tr.inputs] for tr in net.transitions]
+    rank = [min(ins) * n_trans + t for t, ins in enumerate(inputs)]  # successor order
+    readers: list[tuple[int, ...]] = [() for _ in net.places]
+    for t, p in enumerate(triggers(net)):
+        readers[p] += (t,)  # examined when its most selective input is marked
+    wide = len(net.places) > WIDE
+    searcher = _search_sets if wide else _search_ints
+    return searcher(net, readers, rank, max_markings, arcs, max_bytes)
 
 
 def _search_ints(net: Net, readers: list[tuple[int, ...]], rank: list[int], max_markings: int,
@@ -112,39 +130,45 @@ def _search_ints(net: Net, readers: list[tuple[int, ...]], rank: list[int], max_
     fired = [0] * len(net.transitions)
     head = 0
     complete = True
+    # locals, not attribute look-ups, in the loop that runs once per arc
+    index_get, order_append = index.get, order.append
+    src_append, dst_append, trs_append = src.append, dst.append, trs.append
+    by_rank = rank.__getitem__
+    moves = [(~pre[t], post[t]) for t in range(len(net.transitions))]
+    looked_up = sum(1 << p for p, ts in enumerate(readers) if ts)  # places some t is under
     while head < len(order):
         m = order[head]
         if not arcs:
             degree.append(0)
         candidates: list[int] = []
-        bits = m
+        bits = m & looked_up
         while bits:  # each marked place: the transitions looked up by it
             low = bits & -bits
             candidates += readers[low.bit_length() - 1]
             bits ^= low
-        if len(candidates) > 1:
-            candidates.sort(key=rank.__getitem__)
-        for t in candidates:
-            if m & pre[t] != pre[t]:
-                continue
-            rest = m & ~pre[t]
-            if rest & post[t]:
+        enabled = [t for t in candidates if m & pre[t] == pre[t]]
+        if len(enabled) > 1:
+            enabled.sort(key=by_rank)
+        for t in enabled:
+            off, on = moves[t]
+            rest = m & off
+            if rest & on:
                 return None  # a second token in a place: not 1-safe
-            n = rest | post[t]
-            j = index.get(n)
+            n = rest | on
+            j = index_get(n)
             if j is None:
-                if len(order) >= max_markings or \
-                        len(order) * per + len(src) * per_arc > max_bytes:
+                j = len(order)
+                if j >= max_markings or j * per + len(src) * per_arc > max_bytes:
                     complete = False
                     break
-                j = index[n] = len(order)
-                order.append(n)
+                index[n] = j
+                order_append(n)
                 parent.append(head)
                 parent_t.append(t)
             if arcs:
-                src.append(head)
-                dst.append(j)
-                trs.append(t)
+                src_append(head)
+                dst_append(j)
+                trs_append(t)
             else:
                 degree[head] += 1
                 fired[t] += 1

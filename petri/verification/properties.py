@@ -46,7 +46,6 @@ import math
 import time
 
 import numpy as np
-import numpy.typing as npt
 
 from petri.net import Net
 from petri.semantics import Semantics
@@ -58,7 +57,8 @@ from petri.verification.reachability import StateSpace, explore, shortest_path
 from petri.verification.termination import (Termination, can_end, instant_loop, no_zeno,
                                             stop_safe, terminates)
 from petri.verification.timed import TimedSpace, explore_timed
-from petri.verification.verdict import Result, Verdict, nearest, step, undecided
+from petri.verification.verdict import (HOLDS, Result, Verdict, dead_transitions,
+                                        explicit_method, nearest, step, undecided)
 
 __all__ = ["TIMED_MAX_CLASSES", "Result", "Verdict", "actions_match", "step", "undecided",
            "verify"]
@@ -69,28 +69,30 @@ TIMED_MAX_CLASSES = 50_000
 
 
 def verify(net: Net, max_markings: int = 5_000_000, keep_graph: bool = False,
-           termination: Termination = terminates, max_bytes: float = math.inf) -> Verdict:
+           termination: Termination = terminates, max_bytes: float = math.inf,
+           space: StateSpace | None = None) -> Verdict:
     """Explore the net's reachability graph (with the external stop) and decide every
     property of docs/SEMANTICS.md on it; a property a cut exploration cannot decide is
     undecided. With ``keep_graph`` the verdict keeps the graph (``Verdict.space``); without,
     it is not kept (a run that verifies first does not hold it in memory while it runs).
     ``termination`` decides ``terminates`` on the graph (default: the graph rule; a mission
     passes its own, from its proved worst case). The search stops, cut, where the next
-    arrays would take it past ``max_bytes`` (petri/verification/reachability.py)."""
+    arrays would take it past ``max_bytes`` (petri/verification/reachability.py). ``space``:
+    that exploration, when the caller made it already (petri/verification/all_hold.py)."""
     start = time.perf_counter()
-    ss = explore(net, max_markings=max_markings, max_bytes=max_bytes)
+    ss = space if space is not None else explore(net, max_markings=max_markings,
+                                                 max_bytes=max_bytes)
     check = _Exploration(net, ss, Semantics(net))
     g, how, cut = check.graph, check.how, check.cut
     verdict = Verdict(net, ss.n_markings, len(ss.src), 0.0, space=ss if keep_graph else None)
     results = verdict.results
     results.append(check.safety("one-safe", np.flatnonzero(ss.markings.max(axis=1) > 1),
-                                "every place holds at most one token",
-                                "a place can hold two tokens"))
+                                HOLDS["one-safe"], "a place can hold two tokens"))
     results.append(check.safety("proper-completion", np.flatnonzero(g.ended & (g.others > 1)),
-                                "the mission ends with exactly one token, in its ok or fail "
-                                "place", "the mission can end with tokens left behind"))
-    results.append(check.safety("no-deadlock", g.deadlocks(), "no reachable marking is stuck "
-                                "before the mission ends", "the mission can get stuck"))
+                                HOLDS["proper-completion"],
+                                "the mission can end with tokens left behind"))
+    results.append(check.safety("no-deadlock", g.deadlocks(), HOLDS["no-deadlock"],
+                                "the mission can get stuck"))
     results.append(termination(g, how, cut))
     results.append(can_end(g, how, cut))
     results.append(no_zeno(g, how, cut))
@@ -106,7 +108,7 @@ def verify(net: Net, max_markings: int = 5_000_000, keep_graph: bool = False,
     if cut:
         results.append(undecided("no-dead-transitions", cut, how, "warning"))
     else:
-        results.append(_dead(net, never, how))
+        results.append(dead_transitions(net, never.tolist(), how))
     for r in results:
         if r.witness is not None:
             verdict.witnesses[r.witness] = net.describe_marking(ss.markings[r.witness])
@@ -123,8 +125,8 @@ class _Exploration:
         self.net, self.ss, self.rules = net, ss, rules
         self.graph = ReachabilityGraph(ss, net, rules)
         reason = ss.stop_reason or "a limit was reached"
-        self.how = (f"explicit reachability graph ({ss.n_markings} markings, {len(ss.src)} "
-                    "arcs)" + ("" if ss.complete else f", CUT: {reason}"))
+        self.how = (explicit_method(ss.n_markings, len(ss.src))
+                    + ("" if ss.complete else f", CUT: {reason}"))
         self.cut = "" if ss.complete else (f"undecided: the exploration stopped ({reason}) "
                                            "before every marking was seen")
         self.timed: list[TimedSpace] = []
@@ -180,15 +182,12 @@ def _behaviour_properties(check: _Exploration) -> list[Result]:
     conflict, what = dof_conflicts(net, on)
     holders = [ps for b, ps in check.rules.holders.items() if net.dofs.get(b)]
     return [
-        check.safety("behaviours-off-at-end", left_on, "no behaviour is left on when the "
-                     "mission ends", f"the mission can end with {', '.join(names)} still on"),
-        check.safety("behaviour-single-owner", shared,
-                     "no behaviour driving a degree of freedom is held on by two tasks at once "
-                     "(watchers are shared: on until the last holder lets go)",
+        check.safety("behaviours-off-at-end", left_on, HOLDS["behaviours-off-at-end"],
+                     f"the mission can end with {', '.join(names)} still on"),
+        check.safety("behaviour-single-owner", shared, HOLDS["behaviour-single-owner"],
                      f"{who} can be held on by two tasks at once: the first to end switches it "
                      "off under the other", some_group(g.marked, holders)),
-        check.safety("dof-exclusive", conflict,
-                     "no two behaviours driving the same degree of freedom are on together",
+        check.safety("dof-exclusive", conflict, HOLDS["dof-exclusive"],
                      f"two behaviours can drive {what} at once", some_group(on, dof_groups(net))),
     ]
 
@@ -198,7 +197,7 @@ def _disable_while_held(check: _Exploration) -> Result:
     still holds it: the line says "off", but a running task still drives it."""
     name = "no-disable-while-held"
     net, ss, g = check.net, check.ss, check.graph
-    good = "no task switches off a behaviour another task holds"
+    good = HOLDS[name]
     order = np.argsort(ss.transition, kind="stable")  # the arcs of each transition
     starts = np.searchsorted(ss.transition[order], np.arange(len(net.transitions) + 1))
     disables = [(t, a.behaviour) for t, tr in enumerate(net.transitions) for a in tr.actions
@@ -243,18 +242,3 @@ def _held_after(check: _Exploration, disables: list[tuple[int, str]], order: Row
         for i, lo, hi in zip(jobs, bounds[:-1], bounds[1:]):
             out[i] = (arcs[i], held[lo:hi])
     return out
-
-
-def _dead(net: Net, never: npt.NDArray[np.int64], how: str) -> Result:
-    """no-dead-transitions (a warning): the transitions no reachable marking fires."""
-    origins = [(net.transitions[t].origin, net.transitions[t].name) for t in never]
-    tasks_never = sorted({(o.line, o.text) for o, name in origins
-                          if o is not None and o.kind == "task" and name.endswith(".start")})
-    if len(never) == 0:
-        return Result("no-dead-transitions", True, "warning", "every transition can fire", how)
-    msg = (f"{len(never)} of {len(net.transitions)} transitions never fire "
-           "(template paths this mission cannot take)")
-    if tasks_never:
-        msg += "; tasks that can never start: " + ", ".join(
-            f"{text} (line {line})" for line, text in tasks_never)
-    return Result("no-dead-transitions", False, "warning", msg, how)

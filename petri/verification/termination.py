@@ -31,7 +31,7 @@ from petri.net import Net
 from petri.semantics import MAX_FIRINGS_PER_INSTANT
 from petri.verification.graph import Adjacency, ReachabilityGraph, lasso
 from petri.verification.reachability import shortest_path
-from petri.verification.verdict import Result, nearest, undecided
+from petri.verification.verdict import HOLDS, INSTANT_OK, NO_STOP, Result, nearest, undecided
 
 
 Termination = Callable[[ReachabilityGraph, str, str], Result]
@@ -66,9 +66,7 @@ def can_end(g: ReachabilityGraph, how: str, cut: str) -> Result:
                                 within=g.main)
     bad = g.main & ~reached
     if not bad.any():
-        return Result(name, True, "error", "from every reachable marking the mission can "
-                      "still end by itself (no external stop needed)",
-                      how + ", backward search")
+        return Result(name, True, "error", HOLDS[name], how + ", backward search")
     main = ~g.stop_arc
     loop = lasso(g.ss, g.main_arcs, bad, g.ss.src[main], g.ss.dst[main], g.main_arcs)
     if loop is None:  # every marking that cannot end is stuck: no-deadlock says where
@@ -145,7 +143,7 @@ def no_zeno(g: ReachabilityGraph, how: str, cut: str) -> Result:
                       "round wait for an event or a timer > 0", how, prefix, at, cycle=cycle)
     if cut:
         return undecided(name, cut, how)
-    return Result(name, True, "error", "no loop can go round without time passing", how)
+    return Result(name, True, "error", HOLDS[name], how)
 
 
 def instant_loop(g: ReachabilityGraph, how: str, cut: str) -> Result:
@@ -170,10 +168,6 @@ def instant_loop(g: ReachabilityGraph, how: str, cut: str) -> Result:
     if cut:
         return undecided(name, cut, how, "warning")
     return Result(name, True, "warning", INSTANT_OK, how)
-
-
-INSTANT_OK = ("every loop waits for a timer > 0 on each lap: none can go round at one "
-              "instant, however fast the vehicle answers")
 
 
 def instant_text(where: str, events: list[str], among: bool = False) -> str:
@@ -203,14 +197,12 @@ def stop_safe(g: ReachabilityGraph, how: str, cut: str) -> Result:
     if cut:
         return undecided(name, cut, how)
     if not g.stop_arc.any():
-        return Result(name, True, "error", "the mission has no external stop to check", how)
+        return Result(name, True, "error", NO_STOP, how)
     can_end = g.all_arcs.reach(np.flatnonzero(g.terminal & g.stopped), backward=True,
                                within=g.stopped)
     bad = np.flatnonzero(g.stopped & ~can_end)
     if len(bad):
         return nearest(g.ss, name, bad, "", "after an external stop the mission can fail to "
                        "end", how + ", stop region")
-    return Result(name, True, "error", "an external stop (operator, uncaught Link.lost, a "
-                  "limit) from any reachable marking ends the mission with every behaviour "
-                  "off", how + ", stop region")
+    return Result(name, True, "error", HOLDS[name], how + ", stop region")
 

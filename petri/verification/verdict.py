@@ -9,13 +9,16 @@ Every route (the explicit one of :mod:`petri.verification.properties`, the struc
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
-
-import numpy as np
-import numpy.typing as npt
+from typing import TYPE_CHECKING, Any
 
 from petri.net import Net
-from petri.verification.reachability import StateSpace, shortest_path
+
+if TYPE_CHECKING:  # numpy is loaded only where a graph is (a small mission's quick verdict
+    # needs none: petri/verification/all_hold.py)
+    import numpy as np
+    import numpy.typing as npt
+
+    from petri.verification.reachability import StateSpace
 
 
 @dataclass
@@ -39,6 +42,34 @@ class Result:
         return "undecided" if self.undecided else ("holds" if self.holds else "fails")
 
 
+# What each property of the explicit route says when it holds (the quick verdict of
+# petri/verification/all_hold.py says it in the same words).
+INSTANT_OK = ("every loop waits for a timer > 0 on each lap: none can go round at one "
+              "instant, however fast the vehicle answers")
+HOLDS = {
+    "one-safe": "every place holds at most one token",
+    "proper-completion": "the mission ends with exactly one token, in its ok or fail place",
+    "no-deadlock": "no reachable marking is stuck before the mission ends",
+    "can-end": "from every reachable marking the mission can still end by itself (no external "
+               "stop needed)",
+    "no-zeno": "no loop can go round without time passing",
+    "instant-loop": INSTANT_OK,
+    "behaviours-off-at-end": "no behaviour is left on when the mission ends",
+    "behaviour-single-owner": "no behaviour driving a degree of freedom is held on by two tasks "
+                              "at once (watchers are shared: on until the last holder lets go)",
+    "dof-exclusive": "no two behaviours driving the same degree of freedom are on together",
+    "no-disable-while-held": "no task switches off a behaviour another task holds",
+    "stop-safe": "an external stop (operator, uncaught Link.lost, a limit) from any reachable "
+                 "marking ends the mission with every behaviour off",
+}
+NO_STOP = "the mission has no external stop to check"  # stop-safe, in a net without one
+
+
+def explicit_method(markings: int, arcs: int) -> str:
+    """How the explicit route established what a complete exploration decides."""
+    return f"explicit reachability graph ({markings} markings, {arcs} arcs)"
+
+
 def undecided(name: str, why: str, method: str, severity: str = "error") -> Result:
     """A property the method could not establish, and why."""
     return Result(name, False, severity, why, method, undecided=True)
@@ -50,9 +81,27 @@ def nearest(ss: StateSpace, name: str, bad: npt.NDArray[np.int64], good: str, ba
     shortest firing sequence to the nearest bad marking."""
     if len(bad) == 0:
         return Result(name, True, "error", good, method)
+    from petri.verification.reachability import shortest_path  # lazy for start-up speed:
+    # numpy, which a verdict without a counterexample never needs
+
     target = int(bad.min())  # markings are numbered in BFS order: the first is the nearest
-    path = shortest_path(ss, np.array([target]))
+    path = shortest_path(ss, [target])
     return Result(name, False, "error", bad_msg, method, path, target)
+
+
+def dead_transitions(net: Net, never: list[int], how: str) -> Result:
+    """no-dead-transitions (a warning): the transitions no reachable marking fires."""
+    origins = [(net.transitions[t].origin, net.transitions[t].name) for t in never]
+    tasks_never = sorted({(o.line, o.text) for o, name in origins
+                          if o is not None and o.kind == "task" and name.endswith(".start")})
+    if len(never) == 0:
+        return Result("no-dead-transitions", True, "warning", "every transition can fire", how)
+    msg = (f"{len(never)} of {len(net.transitions)} transitions never fire "
+           "(template paths this mission cannot take)")
+    if tasks_never:
+        msg += "; tasks that can never start: " + ", ".join(
+            f"{text} (line {line})" for line, text in tasks_never)
+    return Result("no-dead-transitions", False, "warning", msg, how)
 
 
 @dataclass

@@ -44,10 +44,21 @@ def test_compiling_loads_neither_numpy_nor_the_package_metadata(tmp_path: Path) 
 
 
 def test_the_explicit_route_loads_numpy_with_one_blas_thread(tmp_path: Path) -> None:
-    status, loaded, threads = python(RUN.format(argv=[DAM]), tmp_path)
+    large = str(MISSIONS / "every_construct.mcl")  # 26,426 markings: numpy's searches
+    status, loaded, threads = python(RUN.format(argv=[large]), tmp_path)
     assert (status, loaded, threads) == ("0", "['numpy']", "1")
-    _, _, chosen = python(RUN.format(argv=[DAM]), tmp_path, OPENBLAS_NUM_THREADS="3")
+    _, _, chosen = python(RUN.format(argv=[large]), tmp_path, OPENBLAS_NUM_THREADS="3")
     assert chosen == "3"  # the user's choice stands
+
+
+def test_a_small_mission_edited_and_verified_loads_no_numpy(tmp_path: Path) -> None:
+    """The dam mission changed since its last verdict (none in the cache): the quick verdict
+    (petri/verification/all_hold.py) decides it, as the explicit route would, without numpy."""
+    edited = tmp_path / "dam.mcl"
+    edited.write_text(Path(DAM).read_text("utf-8").replace("= 1.5 m;", "= 1.6 m;", 1), "utf-8")
+    assert edited.read_text("utf-8") != Path(DAM).read_text("utf-8")
+    status, loaded, _ = python(RUN.format(argv=[str(edited)]), tmp_path)  # an empty cache
+    assert (status, loaded) == ("0", "[]")
 
 
 def test_the_version_is_looked_up_only_for_version(tmp_path: Path) -> None:

@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from mcl import printer
 
-from mcl.analysis import structural
+from mcl.analysis import size, structural
 from mcl.api import Compiled, compile_source
 from diagnostics import Source
 from mcl.tasklib import load_sources
@@ -189,7 +189,7 @@ def test_a_cut_explicit_exploration_is_undecided_and_auto_falls_back(
                if r.name in BY_CONSTRUCTION | EXACT)
     # an estimate too low: auto explores, is cut at its limit, and completes the verdict with
     # the structural route
-    monkeypatch.setattr(structural, "mission_estimate", lambda checked: 1.0)
+    monkeypatch.setattr(size, "mission_estimate", lambda checked: 1.0)
     merged = verify_mission(compiled, "auto", max_markings=20_000)
     assert merged.ok, [(r.name, r.status, r.message) for r in merged.results]
     assert all("auto: the explicit route stopped at 20,000 markings" in r.method
