@@ -213,10 +213,6 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
     log_path = Path(args.log) if args.log else Path("out/runs") / (
         f"{Path(args.mission).stem}-{time.strftime('%Y%m%d-%H%M%S')}.jsonl")
     beside = _beside(log_path)
-    if chosen.stack is not None and not args.no_images and beside:  # the camera's images
-        from mosaic.hook import attach  # here for start-up speed: only a simulated run needs it
-
-        attach(chosen.stack, log_path)
     header = {"file": args.mission, "params": _param_texts(overrides), "tasks": args.tasks,
               "vehicle": args.vehicle, "seed": args.seed, "inject": args.inject}
     clock = MissionClock()
@@ -230,6 +226,10 @@ def _run(args: argparse.Namespace, owned: vehicles.Owned) -> int:
         raise
     stops = Stops(STOP_SIGNALS)
     try:
+        if chosen.stack is not None and not args.no_images and beside:  # the camera's images
+            from mosaic.hook import attach  # here for start-up speed: only a sim run needs it
+
+            attach(chosen.stack, log_path)  # its worker process: after every refusal above
         return _run_and_report(args, compiled, chosen, log_path, header, clock, out, stops,
                                signer, [live] if live is not None else [])
     finally:

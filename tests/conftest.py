@@ -1,10 +1,13 @@
 """What every test file shares: the ``once`` fixture, a value computed once per test run
-(tests/once.py); ``dam_runs``, the dam mission run in process by case (tests/dam_runs.py); and
-the order of the files, longest first, in which ``make test`` hands them to its workers."""
+(tests/once.py); ``dam_runs``, the dam mission run in process by case (tests/dam_runs.py); a
+check that no test leaves a child process of ``multiprocessing`` running; and the order of the
+files, longest first, in which ``make test`` hands them to its workers."""
 
 from __future__ import annotations
 
+import multiprocessing
 import os
+from collections.abc import Iterator
 
 import pytest
 
@@ -25,6 +28,27 @@ def once(tmp_path_factory: pytest.TempPathFactory) -> Once:
 def dam_runs(once: Once) -> DamRuns:
     """The dam mission's runs in process by case (tests/dam_runs.py), once per test run."""
     return DamRuns(once)
+
+
+LEFT_GRACE = 5.0  # seconds a child stopped at a test's end has to go before it counts as left
+
+
+@pytest.fixture(autouse=True)
+def no_child_left() -> Iterator[None]:
+    """Fail the test that leaves a ``multiprocessing`` child running (a camera's worker, a
+    proof): every process a test starts is stopped, and a later test that counts its own
+    children (tests/app/lsp/test_proofs.py) would otherwise fail for it."""
+    before = {p.pid for p in multiprocessing.active_children()}
+    yield
+    left = [p for p in multiprocessing.active_children() if p.pid not in before]
+    for p in left:
+        p.join(LEFT_GRACE)
+    left = [p for p in left if p.is_alive()]
+    for p in left:
+        p.terminate()
+        p.join(LEFT_GRACE)
+    if left:
+        pytest.fail(f"left running: {', '.join(f'{p.name} (pid {p.pid})' for p in left)}")
 
 
 # -- the order of the files -------------------------------------------------------------------

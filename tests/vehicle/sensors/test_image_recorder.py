@@ -49,10 +49,13 @@ def test_the_first_image_that_cannot_be_kept_is_named_once(tmp_path: Path,
 
 def test_a_background_recorder_raises_the_first_failure_at_flush(tmp_path: Path) -> None:
     rec = ImageRecorder(tmp_path / "run.images", seed=7, texture=SPEC, background=True)
-    rec.record(0.0, POSE, {})
-    rec.flush()
-    shutil.rmtree(rec.folder)
-    for i in range(1, 4):
-        rec.record(float(i), POSE, {})
-    with pytest.raises(OSError, match=r"only the first 1 images kept; image 00001\.png"):
+    try:
+        rec.record(0.0, POSE, {})
         rec.flush()
+        shutil.rmtree(rec.folder)
+        for i in range(1, 4):
+            rec.record(float(i), POSE, {})
+        with pytest.raises(OSError, match=r"only the first 1 images kept; image 00001\.png"):
+            rec.flush()
+    finally:
+        rec.close(wait=False)  # its worker process stopped: tests after it count children
