@@ -68,7 +68,8 @@ class LiveView:
             raise MclError("--foxglove needs foxglove-sdk, an optional extra: pip install "
                            "'mcl-auv[foxglove]'", code="missing-extra") from None
         try:
-            self.server = foxglove.start_server(name="mcl", host=host, port=port)
+            self.server = foxglove.start_server(name="mcl", host=host, port=port,
+                                                capabilities=[foxglove.Capability.Time])
         except Exception as exc:  # foxglove's own error type: the port is taken, a bad host
             raise MclError(f"--foxglove {host}:{port}: cannot serve there ({exc})",
                            code="foxglove") from None
@@ -78,6 +79,7 @@ class LiveView:
         self.sent = 0  # poses of the followed survey published so far
         self.drawn = 0  # the last pose of the track published so far
         self.walls = 0  # the wall tracker's samples published so far
+        self.clock = -1  # the mission time (ns) last sent to the clients as the server's time
         self.stopped = threading.Event()
         self.follower: threading.Thread | None = None
         topics = {"/mission/log": "foxglove.Log", "/mission/status": "mcl.MissionStatus",
@@ -98,10 +100,20 @@ class LiveView:
                                              **record.data}))
 
     def publish(self, messages: Any) -> None:
+        """Log each message at its mission time, after telling the clients the time if it is
+        later than the last they were told: a viewer stamps what it receives with the server's
+        time (Lichtblick does, with its own clock otherwise), so its clock, Plot and State
+        Transitions run on mission time as with the run's file. The server's time never goes
+        back (Lichtblick drops what it holds when it does)."""
         for m in messages:
             channel = self.channels.get(m.topic)
-            if channel is not None:
-                channel.log(m.data, log_time=nanoseconds(m.t))
+            if channel is None:
+                continue
+            at = nanoseconds(m.t)
+            if at > self.clock:
+                self.server.broadcast_time(at)
+                self.clock = at
+            channel.log(m.data, log_time=at)
 
     def poses(self, track: Track) -> None:
         """Publish the vehicle's poses and the navigator's error, with the frame they are in
