@@ -4,7 +4,8 @@
 publishes on it the channels of a run's MCAP file as they happen: a player observer turns each
 record into its ``/mission/log`` and ``/mission/status`` messages (mission/mcap_messages.py),
 and :meth:`LiveView.follow` publishes the simulated vehicle's poses, navigator error and track
-as its survey records them; ``mcl monitor`` forwards what it hears over Zenoh instead
+as its survey records them. The server's time is mission time (:meth:`LiveView.publish`), so
+that a viewer stamps what it receives as in the run's file; ``mcl monitor`` forwards what it hears over Zenoh instead
 (:meth:`LiveView.remote_status`, :meth:`LiveView.remote_pose`). foxglove-sdk is an optional extra (``pip install
 mcl-auv[foxglove]``); without it the view is refused with that hint.
 """
@@ -29,6 +30,7 @@ from mission.mcap_messages import LogMessages, nanoseconds, source_order
 
 FOLLOW_EVERY = 0.2  # wall s between two looks at the survey's new poses
 LAST_WORDS = 0.2  # wall s for the last messages (the mission's end) to reach the clients
+STATUS_EVERY = 1.0  # mission s: the status is sent again this often while it does not change
 
 
 def address(text: str) -> tuple[str, int]:
@@ -80,6 +82,7 @@ class LiveView:
         self.drawn = 0  # the last pose of the track published so far
         self.walls = 0  # the wall tracker's samples published so far
         self.clock = -1  # the mission time (ns) last sent to the clients as the server's time
+        self.said: float | None = None  # the mission time of the last status published
         self.stopped = threading.Event()
         self.follower: threading.Thread | None = None
         topics = {"/mission/log": "foxglove.Log", "/mission/status": "mcl.MissionStatus",
@@ -109,6 +112,8 @@ class LiveView:
             channel = self.channels.get(m.topic)
             if channel is None:
                 continue
+            if m.topic == "/mission/status":
+                self.said = m.t if self.said is None else max(self.said, m.t)
             at = nanoseconds(m.t)
             if at > self.clock:
                 self.server.broadcast_time(at)
@@ -117,10 +122,20 @@ class LiveView:
 
     def poses(self, track: Track) -> None:
         """Publish the vehicle's poses and the navigator's error, with the frame they are in
-        (``/tf``, as in a file) each time, so that a viewer that connects late knows it too."""
+        (``/tf``, as in a file) each time, so that a viewer that connects late knows it too;
+        and the status again if it has not changed for a while (:meth:`still`)."""
         with self.lock:
             self.publish(frame_messages(track))
             self.publish(pose_messages(track))
+            self.still(track.truth[-1].t if track.truth else -math.inf)
+
+    def still(self, t: float) -> None:
+        """The status again at mission time ``t`` if it was last sent :data:`STATUS_EVERY` or
+        more before (not before it is first sent): a viewer draws a state up to the next message of its topic only (in
+        Lichtblick's State Transitions panel, a task call running for minutes was a label
+        with no bar after it)."""
+        if self.said is not None and t >= self.said + STATUS_EVERY:
+            self.publish([self.messages.status_message(t)])
 
     def follow(self, survey: Any) -> None:
         """Publish the simulated vehicle's new poses every :data:`FOLLOW_EVERY` seconds, from

@@ -201,3 +201,35 @@ def test_the_server_s_time_is_mission_time(live: LiveView) -> None:
             told = [n for k, n in frames[:i] if k == "time"]
             assert told and told[-1] == ns, (i, frames)
     ws.close()
+
+
+def test_a_status_that_does_not_change_is_sent_again_each_second(live: LiveView) -> None:
+    """Lichtblick's State Transitions panel draws a state up to the next status only: while the
+    status does not change, the poses bring it again each second of mission time."""
+    ws = WebSocket("127.0.0.1", live.port, PROTOCOL)
+    seen = channels(ws, {"/mission/status"})
+    ws.send_text(json.dumps({"op": "subscribe", "subscriptions": [
+        {"id": 1, "channelId": seen["/mission/status"]["id"]}]}))
+    live.poses(Track([Pose(0.5, 0.0, 0.0, 1.0, 0.0)], []))  # no status yet: none sent
+    ws.sock.settimeout(0.2)
+    for attempt in range(50):  # until the subscription is in place
+        live(Record(10.0 + attempt, "fire", {"transition": "GoTo@3:5.start", "index": attempt,
+                                              "cause": "immediate", "label": "start",
+                                              "construct": "GoTo(p)", "line": 3}))
+        try:
+            (_, start, _), = received(ws, {1: "/mission/status"}, 1)
+            break
+        except TimeoutError:
+            continue
+    else:
+        pytest.fail("no status received after subscribing")
+    ws.sock.settimeout(10)
+    for tenth in range(1, 26):  # poses every 0.1 s for 2.5 s after the last status
+        live.poses(Track([Pose(start / 1e9 + 0.1 * tenth, 0.0, 0.0, 1.0, 0.0)], []))
+    live(Record(start / 1e9 + 3.0, "fire", {"transition": "GoTo@3:5.ok.GoTo.reached",
+                                             "index": 99, "cause": "GoTo.reached",
+                                             "label": "ok", "construct": "GoTo(p)", "line": 3}))
+    again = received(ws, {1: "/mission/status"}, 3)
+    assert [round((lt - start) / 1e8) for _, lt, _ in again] == [10, 20, 30]
+    assert [s["tasks"][0]["state"] for _, _, s in again] == ["running", "running", "ok"]
+    ws.close()
