@@ -4,7 +4,8 @@
 publishes on it the channels of a run's MCAP file as they happen: a player observer turns each
 record into its ``/mission/log`` and ``/mission/status`` messages (mission/mcap_messages.py),
 and :meth:`LiveView.follow` publishes the simulated vehicle's poses, navigator error and track
-as its survey records them; ``mcl monitor`` forwards what it hears over Zenoh instead
+as its survey records them. The server's time is mission time (:meth:`LiveView.publish`), so
+that a viewer stamps what it receives as in the run's file; ``mcl monitor`` forwards what it hears over Zenoh instead
 (:meth:`LiveView.remote_status`, :meth:`LiveView.remote_pose`). foxglove-sdk is an optional extra (``pip install
 mcl-auv[foxglove]``); without it the view is refused with that hint.
 """
@@ -29,6 +30,7 @@ from mission.mcap_messages import LogMessages, nanoseconds, source_order
 
 FOLLOW_EVERY = 0.2  # wall s between two looks at the survey's new poses
 LAST_WORDS = 0.2  # wall s for the last messages (the mission's end) to reach the clients
+STATUS_EVERY = 1.0  # mission s: the status is sent again this often while it does not change
 
 
 def address(text: str) -> tuple[str, int]:
@@ -68,7 +70,8 @@ class LiveView:
             raise MclError("--foxglove needs foxglove-sdk, an optional extra: pip install "
                            "'mcl-auv[foxglove]'", code="missing-extra") from None
         try:
-            self.server = foxglove.start_server(name="mcl", host=host, port=port)
+            self.server = foxglove.start_server(name="mcl", host=host, port=port,
+                                                capabilities=[foxglove.Capability.Time])
         except Exception as exc:  # foxglove's own error type: the port is taken, a bad host
             raise MclError(f"--foxglove {host}:{port}: cannot serve there ({exc})",
                            code="foxglove") from None
@@ -78,6 +81,8 @@ class LiveView:
         self.sent = 0  # poses of the followed survey published so far
         self.drawn = 0  # the last pose of the track published so far
         self.walls = 0  # the wall tracker's samples published so far
+        self.clock = -1  # the mission time (ns) last sent to the clients as the server's time
+        self.said: float | None = None  # the mission time of the last status published
         self.stopped = threading.Event()
         self.follower: threading.Thread | None = None
         topics = {"/mission/log": "foxglove.Log", "/mission/status": "mcl.MissionStatus",
@@ -98,17 +103,39 @@ class LiveView:
                                              **record.data}))
 
     def publish(self, messages: Any) -> None:
+        """Log each message at its mission time, after telling the clients the time if it is
+        later than the last they were told: a viewer stamps what it receives with the server's
+        time (Lichtblick does, with its own clock otherwise), so its clock, Plot and State
+        Transitions run on mission time as with the run's file. The server's time never goes
+        back (Lichtblick drops what it holds when it does)."""
         for m in messages:
             channel = self.channels.get(m.topic)
-            if channel is not None:
-                channel.log(m.data, log_time=nanoseconds(m.t))
+            if channel is None:
+                continue
+            if m.topic == "/mission/status":
+                self.said = m.t if self.said is None else max(self.said, m.t)
+            at = nanoseconds(m.t)
+            if at > self.clock:
+                self.server.broadcast_time(at)
+                self.clock = at
+            channel.log(m.data, log_time=at)
 
     def poses(self, track: Track) -> None:
         """Publish the vehicle's poses and the navigator's error, with the frame they are in
-        (``/tf``, as in a file) each time, so that a viewer that connects late knows it too."""
+        (``/tf``, as in a file) each time, so that a viewer that connects late knows it too;
+        and the status again if it has not changed for a while (:meth:`still`)."""
         with self.lock:
             self.publish(frame_messages(track))
             self.publish(pose_messages(track))
+            self.still(track.truth[-1].t if track.truth else -math.inf)
+
+    def still(self, t: float) -> None:
+        """The status again at mission time ``t`` if it was last sent :data:`STATUS_EVERY` or
+        more before (not before it is first sent): a viewer draws a state up to the next message of its topic only (in
+        Lichtblick's State Transitions panel, a task call running for minutes was a label
+        with no bar after it)."""
+        if self.said is not None and t >= self.said + STATUS_EVERY:
+            self.publish([self.messages.status_message(t)])
 
     def follow(self, survey: Any) -> None:
         """Publish the simulated vehicle's new poses every :data:`FOLLOW_EVERY` seconds, from

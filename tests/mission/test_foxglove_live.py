@@ -40,7 +40,7 @@ def channels(ws: WebSocket, wanted: set[str]) -> dict[str, dict[str, Any]]:
 def received(ws: WebSocket, subscriptions: dict[int, str], count: int
              ) -> list[tuple[str, int, dict[str, Any]]]:
     """The next ``count`` message-data frames: (topic, log time, JSON)."""
-    out = []
+    out: list[tuple[str, int, dict[str, Any]]] = []
     while len(out) < count:
         opcode, payload = ws.receive()
         if opcode == 2 and payload[0] == 0x01:  # messageData
@@ -159,4 +159,77 @@ def test_the_poses_frame_is_served_live_as_in_a_file(live: LiveView) -> None:
     jsonschema.validate(frame, SCHEMAS["foxglove.FrameTransform"])
     assert (frame["parent_frame_id"], frame["child_frame_id"]) == ("surface", "world")
     assert log_time == round(0.2 * attempt * 1e9)
+    ws.close()
+
+
+def test_the_server_s_time_is_mission_time(live: LiveView) -> None:
+    """A viewer stamps what it receives with the server's time (Lichtblick uses its own wall
+    clock otherwise, so that its Plot and State Transitions ran on the time of day while the
+    Log showed mission time): the server says it publishes time, sends the mission time before
+    each message that is later, and never goes back."""
+    ws = WebSocket("127.0.0.1", live.port, PROTOCOL)
+    opcode, payload = ws.receive()
+    info = json.loads(payload)
+    assert opcode == 1 and info["op"] == "serverInfo" and "time" in info["capabilities"]
+    seen = channels(ws, {"/mission/status"})
+    ws.send_text(json.dumps({"op": "subscribe", "subscriptions": [
+        {"id": 1, "channelId": seen["/mission/status"]["id"]}]}))
+    ws.sock.settimeout(0.2)
+    frames: list[tuple[str, int]] = []  # ("time" or "status", nanoseconds)
+    for attempt in range(50):
+        t = 10.0 + attempt
+        live(Record(t, "fire", {"transition": "GoTo@3:5.start", "index": attempt,
+                                "cause": "immediate", "label": "start",
+                                "construct": "GoTo(p)", "line": 3}))
+        live.poses(Track([Pose(t - 5.0, 0.0, 0.0, 1.0, 0.0)], []))  # earlier: no time back
+        try:
+            while True:
+                opcode, payload = ws.receive()
+                if opcode == 2 and payload[0] == 0x02:  # time
+                    frames.append(("time", struct.unpack_from("<Q", payload, 1)[0]))
+                elif opcode == 2 and payload[0] == 0x01:  # messageData
+                    frames.append(("status", struct.unpack_from("<Q", payload, 5)[0]))
+        except TimeoutError:
+            if any(kind == "status" for kind, _ in frames):
+                break
+    else:
+        pytest.fail("no status received after subscribing")
+    times = [ns for kind, ns in frames if kind == "time"]
+    assert times == sorted(set(times)) and times[0] == 10_000_000_000
+    for i, (kind, ns) in enumerate(frames):
+        if kind == "status":
+            told = [n for k, n in frames[:i] if k == "time"]
+            assert told and told[-1] == ns, (i, frames)
+    ws.close()
+
+
+def test_a_status_that_does_not_change_is_sent_again_each_second(live: LiveView) -> None:
+    """Lichtblick's State Transitions panel draws a state up to the next status only: while the
+    status does not change, the poses bring it again each second of mission time."""
+    ws = WebSocket("127.0.0.1", live.port, PROTOCOL)
+    seen = channels(ws, {"/mission/status"})
+    ws.send_text(json.dumps({"op": "subscribe", "subscriptions": [
+        {"id": 1, "channelId": seen["/mission/status"]["id"]}]}))
+    live.poses(Track([Pose(0.5, 0.0, 0.0, 1.0, 0.0)], []))  # no status yet: none sent
+    ws.sock.settimeout(0.2)
+    for attempt in range(50):  # until the subscription is in place
+        live(Record(10.0 + attempt, "fire", {"transition": "GoTo@3:5.start", "index": attempt,
+                                              "cause": "immediate", "label": "start",
+                                              "construct": "GoTo(p)", "line": 3}))
+        try:
+            (_, start, _), = received(ws, {1: "/mission/status"}, 1)
+            break
+        except TimeoutError:
+            continue
+    else:
+        pytest.fail("no status received after subscribing")
+    ws.sock.settimeout(10)
+    for tenth in range(1, 26):  # poses every 0.1 s for 2.5 s after the last status
+        live.poses(Track([Pose(start / 1e9 + 0.1 * tenth, 0.0, 0.0, 1.0, 0.0)], []))
+    live(Record(start / 1e9 + 3.0, "fire", {"transition": "GoTo@3:5.ok.GoTo.reached",
+                                             "index": 99, "cause": "GoTo.reached",
+                                             "label": "ok", "construct": "GoTo(p)", "line": 3}))
+    again = received(ws, {1: "/mission/status"}, 3)
+    assert [round((lt - start) / 1e8) for _, lt, _ in again] == [10, 20, 30]
+    assert [s["tasks"][0]["state"] for _, _, s in again] == ["running", "running", "ok"]
     ws.close()

@@ -18,7 +18,15 @@
 //            (default 20), so that the Log panel holds every line; play:SECONDS up to that
 //            mission time (the file lichtblick-play-SECONDS.png);
 //   serve    no screenshot: print the page's address and serve until Ctrl-C.
-// The default is `play:240 1200`. Bad arguments: one line, exit 2. Environment: CHROMIUM (the
+// The default is `play:240 1200`.
+//
+//   node tools/lichtblick/screenshots.mjs LICHTBLICK_DIR ws://HOST:PORT OUT_DIR [SECONDS ...]
+//
+// follows a running server live instead (`mcl run MISSION.mcl --realtime --foxglove HOST:PORT`,
+// docs/MCAP.md "Live"): the page `/?ds=foxglove-websocket&ds.url=ws://HOST:PORT&layoutUrl=...`
+// connects to it with Lichtblick's Foxglove WebSocket source, and each SECONDS is one
+// screenshot that long (wall time) after the page opened, OUT_DIR/lichtblick-live-SECONDS.png
+// (default `20 60`); serve as above. Bad arguments: one line, exit 2. Environment: CHROMIUM (the
 // browser), LICHTBLICK_SPEED, LICHTBLICK_PORT (default: a free one), LICHTBLICK_SETTLE_MS
 // (the wait before each screenshot, default 5000), LICHTBLICK_DEBUG=1 (the page's console).
 
@@ -45,13 +53,16 @@ function refuse(message) {
 function parseArguments(argv) {
   const [lichtblick, mcap, out, ...whens] = argv;
   if (!lichtblick || !mcap || !out) {
-    refuse("usage: node tools/lichtblick/screenshots.mjs LICHTBLICK_DIR RUN.mcap OUT_DIR "
-      + "[SECONDS|play|serve ...]");
+    refuse("usage: node tools/lichtblick/screenshots.mjs LICHTBLICK_DIR RUN.mcap|ws://HOST:PORT "
+      + "OUT_DIR [SECONDS|play|serve ...]");
   }
   const site = path.resolve(lichtblick, "web", ".webpack");
   if (!existsSync(path.join(site, "index.html"))) {
     refuse(`${site}/index.html: no Lichtblick web build there; build it with `
       + "`yarn web:build:prod` in the checkout (docs/MCAP.md, \"Seen in Lichtblick\")");
+  }
+  if (/^wss?:/.test(mcap)) {
+    return parseLive(lichtblick, site, mcap, out, whens);
   }
   if (!existsSync(mcap) || !statSync(mcap).isFile()) {
     refuse(`${mcap}: no such MCAP file; write one with mcl run MISSION.mcl --mcap FILE`);
@@ -69,6 +80,19 @@ function parseArguments(argv) {
     whens: whens.length ? whens : ["play:240", "1200"], speed };
 }
 
+/** The arguments of the live mode: a server's ws:// URL, wall seconds after the page opened. */
+function parseLive(lichtblick, site, url, out, whens) {
+  if (!/^wss?:\/\/[^/:\s]+:\d+\/?$/.test(url)) {
+    refuse(`${url}: say the server's address as ws://HOST:PORT (mcl run --foxglove HOST:PORT)`);
+  }
+  for (const when of whens) {
+    if (!/^(\d+(\.\d+)?|serve)$/.test(when)) {
+      refuse(`${when}: live, say seconds after the page opened (20) or serve`);
+    }
+  }
+  return { lichtblick, site, live: url, out, whens: whens.length ? whens : ["20", "60"] };
+}
+
 /** The build's files, the MCAP file and the layout, with HTTP range requests (Lichtblick reads
  * an MCAP file by ranges: its summary first, then the chunks each panel needs). */
 function serve(site, mcap, layout) {
@@ -78,7 +102,7 @@ function serve(site, mcap, layout) {
       response.writeHead(200, { "Content-Type": "application/json" }).end(layout);
       return;
     }
-    const file = name === "/run.mcap" ? mcap
+    const file = name === "/run.mcap" && mcap ? mcap
       : path.join(site, path.normalize(name === "/" ? "/index.html" : name));
     if ((file !== mcap && !file.startsWith(site)) || !existsSync(file)
         || !statSync(file).isFile()) {
@@ -137,15 +161,22 @@ function pageUrl(base, seconds) {
     + `&layoutUrl=${encodeURIComponent(`${base}/layout.json`)}&time=${seconds}`;
 }
 
-/** Opens the file at `seconds`, waits for the panels to have read what they need, and hides
- * the left sidebar (Lichtblick keeps that choice). */
-async function open(page, base, seconds) {
+/** The page that connects to a running Foxglove WebSocket server with the layout. */
+function livePageUrl(base, url) {
+  return `${base}/?ds=foxglove-websocket&ds.url=${encodeURIComponent(url)}`
+    + `&layoutUrl=${encodeURIComponent(`${base}/layout.json`)}`;
+}
+
+/** Opens `address` (the file at `seconds`, or a live server), waits for the panels to have
+ * read what they need, and hides the left sidebar (Lichtblick keeps that choice). */
+async function open(page, address) {
   const loaded = idle(page, 4_000, 120_000);
-  await page.goto(pageUrl(base, seconds));
+  await page.goto(address);
   await loaded;
   const hide = page.locator('[aria-label="Hide left sidebar"]');
+  await page.keyboard.press("Escape");  // the data source dialog of a page with no source
   if (await hide.isVisible()) {
-    await hide.click();
+    await hide.click({ timeout: 10_000 }).catch(() => undefined);
   }
   await page.mouse.move(800, 500);  // no tooltip left over the panels
 }
@@ -178,7 +209,7 @@ async function play(page, until, speed) {
 
 async function shoot(page, base, when, speed, file) {
   const [mode, until] = when.split(":");
-  await open(page, base, mode === "play" ? 0 : when);
+  await open(page, pageUrl(base, mode === "play" ? 0 : when));
   if (mode === "play") {
     await play(page, until === undefined ? Infinity : Number(until), speed);
   }
@@ -188,14 +219,36 @@ async function shoot(page, base, when, speed, file) {
   process.stdout.write(`${file}\n`);
 }
 
+/** Follows a live server: one page, a screenshot at each of `whens` (wall seconds after the
+ * page opened, in increasing order). */
+async function shootLive(page, base, url, whens, out) {
+  const opened = Date.now();
+  await open(page, livePageUrl(base, url));
+  for (const when of whens.map(Number).sort((a, b) => a - b)) {
+    await page.waitForTimeout(Math.max(0, opened + when * 1000 - Date.now()));
+    const bottom = page.getByTestId("scroll-to-bottom-button");  // the Log's latest lines
+    if (await bottom.isVisible()) {
+      await bottom.click({ timeout: 5_000 }).catch(() => undefined);
+      await page.waitForTimeout(1_000);
+    }
+    await page.mouse.move(800, 500);
+    const file = path.join(out, `lichtblick-live-${when}.png`);
+    await page.screenshot({ path: file });
+    process.stdout.write(`${file}\n`);
+  }
+}
+
 async function main() {
-  const { lichtblick, site, mcap, out, whens, speed } = parseArguments(process.argv.slice(2));
+  const { lichtblick, site, mcap, live, out, whens, speed } = parseArguments(
+    process.argv.slice(2));
   const layout = JSON.parse(readFileSync(path.join(HERE, "layout.json"), "utf-8"));
-  layout.playbackConfig = { ...layout.playbackConfig, speed };
+  if (speed !== undefined) {  // a live source plays at the server's pace
+    layout.playbackConfig = { ...layout.playbackConfig, speed };
+  }
   const server = await serve(site, mcap, JSON.stringify(layout));
   const base = `http://127.0.0.1:${server.address().port}`;
-  if (whens.includes("serve")) {
-    process.stdout.write(`${pageUrl(base, 0)}\n`);  // open it in any browser; Ctrl-C ends
+  if (whens.includes("serve")) {  // open it in any browser; Ctrl-C ends
+    process.stdout.write(`${live ? livePageUrl(base, live) : pageUrl(base, 0)}\n`);
     return;
   }
   mkdirSync(out, { recursive: true });
@@ -205,8 +258,14 @@ async function main() {
     executablePath: process.env.CHROMIUM ?? "/usr/bin/chromium", args: FLAGS });
   try {
     const page = await browser.newPage({ viewport: { width: 1600, height: 1000 } });
-    page.on("console", (m) => { if (process.env.LICHTBLICK_DEBUG) console.error(m.text()); });
-    for (const when of whens) {
+    if (process.env.LICHTBLICK_DEBUG) {
+      page.on("console", (m) => console.error(m.text()));
+      page.on("request", (r) => console.error(`request ${r.url().slice(0, 160)}`));
+    }
+    if (live) {
+      await shootLive(page, base, live, whens, out);
+    }
+    for (const when of live ? [] : whens) {
       const name = `lichtblick-${when.replace(":", "-")}.png`;
       await shoot(page, base, when, speed, path.join(out, name));
     }
