@@ -27,10 +27,11 @@ import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Protocol, TextIO
 
+from aal.zenoh_observer import SessionRefused
 from diagnostics import MclError
 from mission.exits import Exit
 from app import arguments, zenoh_options
-from app.monitor_fleet import fleet_vehicles, follow, monitor_fleet, open_session
+from app.monitor_fleet import fleet_vehicles, follow, monitor_fleet, open_session, refused
 
 if TYPE_CHECKING:
     from mission.foxglove_live import LiveView
@@ -354,7 +355,7 @@ def _live(where: str | None) -> LiveView | str | None:
 
 def _monitor(args: argparse.Namespace, security: Any, live: LiveView | None) -> int:
     """Watch over Zenoh until the end, the timeout or a signal."""
-    from aal.zenoh import close_session, zenoh_config
+    from aal.zenoh import close_session  # start-up speed: it imports zenoh
 
     if args.fleet_vehicle:  # every vehicle of a fleet
         return monitor_fleet(args, View, watch)
@@ -364,10 +365,10 @@ def _monitor(args: argparse.Namespace, security: Any, live: LiveView | None) -> 
     stop = threading.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop.set())
-    session = open_session(zenoh_config(args.zenoh, "client", connect=True,
-                                        security=security, role="observer",
-                                        scouting=args.scouting),
-                           args.zenoh, args.timeout, stop)
+    try:
+        session = open_session(args.zenoh, security, args.scouting, args.timeout, stop)
+    except SessionRefused as exc:
+        return refused(exc)
     if session is None:
         return Exit.UNDECIDED if not stop.is_set() else Exit.OK
     try:

@@ -19,10 +19,10 @@ import json
 import signal
 import sys
 import threading
-import time
 from collections.abc import Callable, Mapping
 from typing import Any, Protocol, TextIO
 
+from aal.zenoh_observer import SessionRefused, observer_session
 from mission.exits import Exit
 
 from app import zenoh_options
@@ -138,31 +138,25 @@ class Watches(Protocol):
                  out: TextIO, stop: threading.Event) -> int: ...
 
 
-def open_session(config: Any, endpoint: str, timeout: float | None,
+def open_session(endpoint: str, security: Any, scouting: bool, timeout: float | None,
                  stop: threading.Event) -> Any:
-    """Open the client session, retrying while the vehicle is not there yet (bounded by
-    ``timeout`` and ``stop``); None if it never came."""
-    import zenoh  # start-up speed: only once watching
+    """The observer's session to the vehicle at ``endpoint`` (aal/zenoh_observer.py), saying
+    once that it waits for a vehicle not there yet; None if none came within ``timeout`` or
+    ``stop`` came first (said unless ``stop``). :class:`SessionRefused` when the vehicle is
+    there but refuses this observer's credentials."""
+    session = observer_session(endpoint, security, stop, timeout=timeout, scouting=scouting,
+                               waiting=lambda why: print(
+                                   f"mcl monitor: waiting for the vehicle at {endpoint} "
+                                   f"({why})", file=sys.stderr, flush=True))
+    if session is None and not stop.is_set():
+        print(f"mcl monitor: no vehicle at {endpoint} within {timeout:g} s", file=sys.stderr)
+    return session
 
-    from aal.zenoh import zenoh_error
 
-    deadline = time.monotonic() + timeout if timeout else None
-    said = False
-    while not stop.is_set():
-        try:
-            return zenoh.open(config)
-        except zenoh.ZError as exc:
-            if not said:
-                print(f"mcl monitor: waiting for the vehicle at {endpoint} "
-                      f"({zenoh_error(exc)})",
-                      file=sys.stderr, flush=True)
-                said = True
-        if deadline is not None and time.monotonic() >= deadline:
-            print(f"mcl monitor: no vehicle at {endpoint} within {timeout:g} s",
-                  file=sys.stderr)
-            return None
-        stop.wait(0.5)
-    return None
+def refused(exc: SessionRefused) -> int:
+    """Say on one line that the vehicle refused this observer's session: exit 2."""
+    print(f"mcl monitor: error: {exc}", file=sys.stderr)
+    return Exit.INVALID
 
 
 def follow(session: Any, view: Follows) -> list[Any]:
@@ -194,7 +188,7 @@ def monitor_fleet(args: argparse.Namespace, make_view: Callable[[str, str], Any]
     options checked by app/monitor.py) and the fleet's channels, until the end, the timeout
     or a signal; ``make_view(name, endpoint)`` makes one vehicle's view, ``watch`` is the
     drawing loop."""
-    from aal.zenoh import close_session, payload_text, zenoh_config
+    from aal.zenoh import close_session, payload_text  # start-up speed: it imports zenoh
 
     vehicles = fleet_vehicles(args.fleet_vehicle)
     if isinstance(vehicles, str):
@@ -211,10 +205,7 @@ def monitor_fleet(args: argparse.Namespace, make_view: Callable[[str, str], Any]
         for endpoint in dict.fromkeys(vehicles.values()):
             own = zenoh_options.from_args(
                 argparse.Namespace(**{**vars(args), "zenoh": endpoint}), "observer")
-            session = open_session(zenoh_config(endpoint, "client", connect=True,
-                                                security=own, role="observer",
-                                                scouting=args.scouting),
-                                   endpoint, args.timeout, stop)
+            session = open_session(endpoint, own, args.scouting, args.timeout, stop)
             if session is None:
                 return Exit.UNDECIDED if not stop.is_set() else Exit.OK
             sessions[endpoint] = session
@@ -227,6 +218,8 @@ def monitor_fleet(args: argparse.Namespace, make_view: Callable[[str, str], Any]
         for e in entities:
             e.undeclare()
         return code
+    except SessionRefused as exc:
+        return refused(exc)
     finally:
         for session in sessions.values():
             close_session(session)

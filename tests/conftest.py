@@ -85,6 +85,7 @@ SECONDS: dict[str, float] = {
     "tests/mission/test_mcm_fleet.py": 11,
     "tests/app/view/test_live_fleet.py": 12,  # a fleet over Zenoh in the browser: 10 s idle
     "tests/app/view/test_live_fleet_secured.py": 17,  # secured vehicles: 2 refusals of 2 s
+    "tests/app/test_monitor_secured.py": 17,  # secured vehicles: 2 refusals of 2 s, 3 times
     "tests/app/view/test_fleet_track.py": 9,  # paper 003's fleet run, Chromium
     "tests/app/view/test_run_view.py": 28,  # wall-clock runs, Chromium, MAVLink, Zenoh
     "tests/vehicle/control/test_stack.py": 20,

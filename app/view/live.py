@@ -19,11 +19,10 @@ from __future__ import annotations
 
 import json
 import math
-import socket
 import threading
 from typing import Any
 
-from diagnostics import MclError
+from aal.zenoh_observer import SessionRefused, observer_session
 
 from app.monitor import task_detail
 from app.view.data import MAX_TRACK, line_of
@@ -189,7 +188,7 @@ def follow(live: LiveRun, endpoint: str, security: Any, stop: threading.Event,
     try:
         session = observer_session(endpoint, security, stop)
     except SessionRefused as exc:
-        live.refused = exc.line
+        live.refused = f"mcl view: error: {exc}"
         return
     if session is None:
         return
@@ -209,53 +208,3 @@ def follow(live: LiveRun, endpoint: str, security: Any, stop: threading.Event,
             pass
     finally:
         close_session(session)
-
-
-class SessionRefused(MclError):
-    """Something answers at the endpoint but will not open this observer's session: the
-    vehicle refused its credentials (``--user``/``--password-file``, or its TLS
-    certificate), or it is not a Zenoh vehicle. ``line``: what ``mcl view`` says, exit 2."""
-
-    def __init__(self, endpoint: str) -> None:
-        self.line = (f"mcl view: error: the vehicle at {endpoint} accepts connections but "
-                     "refused this observer's session: check --user and --password-file (or "
-                     "the TLS certificates) against the vehicle's --users")
-        super().__init__(self.line, code="zenoh-refused", text=self.line)
-
-
-REFUSALS = 2  # refusals in a row, by something that accepts TCP at the endpoint, before
-#               the view gives up (one may be a vehicle still starting)
-
-
-def listens(endpoint: str, timeout: float = 1.0) -> bool:
-    """Whether something accepts a TCP connection at a ``tcp/`` or ``tls/`` endpoint."""
-    proto, _, where = endpoint.partition("/")
-    host, _, port = where.split("?")[0].rpartition(":")
-    if proto not in ("tcp", "tls") or not port.isdigit():
-        return False
-    try:
-        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout):
-            return True
-    except OSError:
-        return False
-
-
-def observer_session(endpoint: str, security: Any, stop: threading.Event) -> Any:
-    """An observer's client session to the vehicle at ``endpoint``, reopened while the vehicle
-    is not there yet; None if ``stop`` came first. :class:`SessionRefused` when something
-    listens there but refuses the session :data:`REFUSALS` times in a row."""
-    import zenoh  # lazy: for start-up speed (a log's view needs no Zenoh)
-
-    from aal.zenoh import zenoh_config
-
-    refused = 0
-    while not stop.is_set():
-        try:
-            return zenoh.open(zenoh_config(endpoint, "client", connect=True,
-                                           security=security, role="observer"))
-        except zenoh.ZError:
-            refused = refused + 1 if listens(endpoint) else 0
-            if refused >= REFUSALS:
-                raise SessionRefused(endpoint) from None
-            stop.wait(0.5)
-    return None

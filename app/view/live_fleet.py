@@ -16,11 +16,12 @@ import json
 import threading
 from typing import Any
 
+from aal.zenoh_observer import SessionRefused, observer_session
 from mcl.fleet import CompiledFleet
 
 from app.view.data import mission_data
 from app.view.fleet import vehicles_page
-from app.view.live import LiveRun, SessionRefused, observer_session
+from app.view.live import LiveRun
 
 MAX_MESSAGES = 1000  # the channel messages the page keeps (the latest)
 
