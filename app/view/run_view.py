@@ -38,8 +38,9 @@ from app.view.live import LiveRun
 from app.view.server import ViewServer
 
 FOLLOW_EVERY = 0.2  # wall s between two looks at the vehicle's new poses
-LAST_LOOK = 3.0  # wall s at most that an open page is waited for to fetch the run's end
-OPEN = 3.0  # wall s: a page that fetched the data this recently is open (it polls every 1 s)
+LAST_LOOK = 5.0  # wall s at most that an open page is waited for to fetch the run's end
+OPEN = 10.0  # wall s: a page that fetched the data this recently is open (it polls every 1 s;
+#             a loaded machine delays it)
 
 
 class StatusTee:

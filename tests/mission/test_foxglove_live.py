@@ -196,10 +196,10 @@ def test_the_server_s_time_is_mission_time(live: LiveView) -> None:
         pytest.fail("no status received after subscribing")
     times = [ns for kind, ns in frames if kind == "time"]
     assert times == sorted(set(times)) and times[0] == 10_000_000_000
-    for i, (kind, ns) in enumerate(frames):
-        if kind == "status":
-            told = [n for k, n in frames[:i] if k == "time"]
-            assert told and told[-1] == ns, (i, frames)
+    for i, (kind, ns) in enumerate(frames):  # the time goes to the socket at once, a message
+        if kind == "status":                 # through the client's queue: a loaded machine
+            told = [n for k, n in frames[:i] if k == "time"]  # may see later times first,
+            assert told and told[-1] >= ns and ns in told, (i, frames)  # never one missing
     ws.close()
 
 
@@ -211,8 +211,8 @@ def test_a_status_that_does_not_change_is_sent_again_each_second(live: LiveView)
     ws.send_text(json.dumps({"op": "subscribe", "subscriptions": [
         {"id": 1, "channelId": seen["/mission/status"]["id"]}]}))
     live.poses(Track([Pose(0.5, 0.0, 0.0, 1.0, 0.0)], []))  # no status yet: none sent
-    ws.sock.settimeout(0.2)
-    for attempt in range(50):  # until the subscription is in place
+    ws.sock.settimeout(1.0)
+    for attempt in range(30):  # until the subscription is in place
         live(Record(10.0 + attempt, "fire", {"transition": "GoTo@3:5.start", "index": attempt,
                                               "cause": "immediate", "label": "start",
                                               "construct": "GoTo(p)", "line": 3}))
@@ -223,6 +223,11 @@ def test_a_status_that_does_not_change_is_sent_again_each_second(live: LiveView)
             continue
     else:
         pytest.fail("no status received after subscribing")
+    try:  # the statuses of later attempts still on their way (a loaded machine): the last one
+        while True:
+            (_, start, _), = received(ws, {1: "/mission/status"}, 1)
+    except TimeoutError:
+        pass
     ws.sock.settimeout(10)
     for tenth in range(1, 26):  # poses every 0.1 s for 2.5 s after the last status
         live.poses(Track([Pose(start / 1e9 + 0.1 * tenth, 0.0, 0.0, 1.0, 0.0)], []))
