@@ -25,13 +25,14 @@ import sys
 import threading
 import time
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, Protocol, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 from aal.zenoh_observer import SessionRefused
 from diagnostics import MclError
 from mission.exits import Exit
 from app import arguments, zenoh_options
-from app.monitor_fleet import fleet_vehicles, follow, monitor_fleet, open_session, refused
+from app.monitor_fleet import (Watched, fleet_vehicles, follow, monitor_fleet, open_session,
+                               refused)
 
 if TYPE_CHECKING:
     from mission.foxglove_live import LiveView
@@ -221,19 +222,6 @@ def _deg(radians: Any) -> float:
     import math
 
     return math.degrees(float(radians or 0.0))
-
-
-class Watched(Protocol):
-    """What the drawing loop reads: one vehicle's :class:`View`, or a fleet's
-    (app/monitor_fleet.py)."""
-
-    changed: threading.Event
-
-    @property
-    def vehicle_alive(self) -> bool | None: ...
-    def ended(self) -> str | None: ...
-    def line(self) -> str: ...
-    def screen(self, width: int = 80) -> list[str]: ...
 
 
 def watch(view: Watched, until_end: bool, timeout: float | None, plain: bool,

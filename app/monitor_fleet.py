@@ -30,8 +30,9 @@ from app import zenoh_options
 CHANNELS = "mcl/fleet/*/channel/*"  # every channel of every fleet, as a vehicle routes them
 
 
-class VehicleView(Protocol):
-    """One vehicle's view (app/monitor.py's View)."""
+class Watched(Protocol):
+    """What the monitor's drawing loop reads (app/monitor.py's ``watch``): one vehicle's view
+    (app/monitor.py's View), or a fleet's (:class:`FleetView`, made of vehicles' views)."""
 
     changed: threading.Event
 
@@ -63,7 +64,7 @@ class FleetView:
     """What the monitor knows of a fleet: a :class:`View` per vehicle (sharing one
     ``changed``) and each channel's messages; read by :func:`app.monitor.watch`."""
 
-    def __init__(self, views: Mapping[str, VehicleView]) -> None:
+    def __init__(self, views: Mapping[str, Watched]) -> None:
         self.changed = threading.Event()
         self.views = dict(views)
         for view in self.views.values():
