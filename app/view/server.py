@@ -42,7 +42,10 @@ class ViewServer(ThreadingHTTPServer):
     """The server: ``provider`` gives the data, ``pictures`` maps a picture's name to its
     file; ``url`` is where a browser opens the page."""
 
-    daemon_threads = True
+    # An answer under way is finished before server_close returns (the process may exit right
+    # after: a page fetching as a run ended got a cut reply); Handler.timeout bounds the wait.
+    daemon_threads = False
+    block_on_close = True
 
     def __init__(self, provider: Provider, pictures: dict[str, Path], port: int = 0,
                  host: str = HOST):
@@ -69,6 +72,7 @@ class Handler(BaseHTTPRequestHandler):
     """GET only: the page, its script and style, data.json, the pictures."""
 
     server: ViewServer
+    timeout = 5.0  # s a connection may stay silent: the server's close waits for no longer
 
     def do_GET(self) -> None:  # noqa: N802 (http.server's name)
         path = urlsplit(self.path).path.lstrip("/")
