@@ -33,25 +33,29 @@ class WebSocket:
         if " 101 " not in self.head.splitlines()[0]:
             raise ConnectionError(self.head)
 
-    def read(self, n: int) -> bytes:
+    def fill(self, n: int) -> None:
+        """Until the buffer holds ``n`` bytes; a timeout (``sock.settimeout``) leaves what
+        came in the buffer, so a frame half read is whole at the next call."""
         while len(self.buffer) < n:
             chunk = self.sock.recv(65536)
             if not chunk:
                 raise ConnectionError("closed")
             self.buffer += chunk
-        out, self.buffer = self.buffer[:n], self.buffer[n:]
-        return out
 
     def receive(self) -> tuple[int, bytes]:
-        """The next whole message: (1 text or 2 binary, its payload); pings are answered."""
+        """The next whole message: (1 text or 2 binary, its payload); pings are answered.
+        Nothing is taken from the buffer until the whole frame is in it."""
         while True:
-            first, second = self.read(2)
-            opcode, length = first & 0x0F, second & 0x7F
+            self.fill(2)
+            opcode, length, head = self.buffer[0] & 0x0F, self.buffer[1] & 0x7F, 2
             if length == 126:
-                length = struct.unpack(">H", self.read(2))[0]
+                self.fill(4)
+                length, head = struct.unpack_from(">H", self.buffer, 2)[0], 4
             elif length == 127:
-                length = struct.unpack(">Q", self.read(8))[0]
-            payload = self.read(length)
+                self.fill(10)
+                length, head = struct.unpack_from(">Q", self.buffer, 2)[0], 10
+            self.fill(head + length)
+            payload, self.buffer = self.buffer[head:head + length], self.buffer[head + length:]
             if opcode == 9:
                 self.send(10, payload)
                 continue

@@ -211,11 +211,13 @@ def test_a_status_that_does_not_change_is_sent_again_each_second(live: LiveView)
     ws.send_text(json.dumps({"op": "subscribe", "subscriptions": [
         {"id": 1, "channelId": seen["/mission/status"]["id"]}]}))
     live.poses(Track([Pose(0.5, 0.0, 0.0, 1.0, 0.0)], []))  # no status yet: none sent
+    live(Record(10.0, "fire", {"transition": "GoTo@3:5.start", "index": 0,
+                               "cause": "immediate", "label": "start",
+                               "construct": "GoTo(p)", "line": 3}))
     ws.sock.settimeout(1.0)
-    for attempt in range(30):  # until the subscription is in place
-        live(Record(10.0 + attempt, "fire", {"transition": "GoTo@3:5.start", "index": attempt,
-                                              "cause": "immediate", "label": "start",
-                                              "construct": "GoTo(p)", "line": 3}))
+    for attempt in range(30):  # until the subscription is in place: the status is sent once
+        if attempt:            # as it changes, then again by a pose a second later
+            live.poses(Track([Pose(10.0 + attempt, 0.0, 0.0, 1.0, 0.0)], []))
         try:
             (_, start, _), = received(ws, {1: "/mission/status"}, 1)
             break
