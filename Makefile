@@ -1,7 +1,7 @@
 # make demo   — set up (first time) and show the dam mission compiled and verified
 # make test   — set up (first time) and run the test suite, on every core (what CI runs)
 # make test-quick — the edit-run loop: the suite without the tests marked slow, on every core
-# make check  — lint (ruff), type-check (mypy), the missions and task libraries in mcl fmt's layout
+# make check  — lint (ruff), type-check (mypy), the missions, task libraries and examples in mcl fmt's layout
 # make bench  — benchmarks (figures, not pass/fail)
 # make vsix   — the VS Code extension (editors/vscode/): its grammars tested, then out/mcl.vsix
 PYTHON ?= python3
@@ -78,7 +78,7 @@ test-quick: $(EXTRAS)
 check: $(EXTRAS)
 	$(BIN)/ruff check $(PACKAGES) tests bench
 	$(BIN)/mypy $(PACKAGES)
-	$(BIN)/mcl fmt --check missions mcl/tasks
+	$(BIN)/mcl fmt --check missions mcl/tasks examples
 
 bench: $(EXTRAS)
 	$(BIN)/python bench/bench_verifier.py
