@@ -18,6 +18,7 @@ from app.arguments import memory_size
 from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
 from app.version import VersionAction
 from app import arguments
+from mcl import dataclass_methods
 from mission.exits import SEVERITY, Exit  # the exit statuses of every command: docs/EXIT.md
 
 # What a call checks and prints is in app/mclc_files.py, loaded only when no report kept from
@@ -133,6 +134,14 @@ def _main(argv: list[str] | None, so_far: list[Exit], prog: str) -> int:
     kept = kept_reports.kept_key(args, sys.argv[1:] if argv is None else argv, fmt, prog)
     if kept is not None and (replayed := kept_reports.replay(*kept)) is not None:
         return replayed  # what the same call printed before (app/kept_reports.py)
+    # the methods of the dataclasses loaded from here on, compiled once (mcl/dataclass_methods.py)
+    with dataclass_methods.kept():
+        return _check(args, argv, fmt, kept, so_far, prog)
+
+
+def _check(args: argparse.Namespace, argv: list[str] | None, fmt: str,
+           kept: tuple[str, list[str | bytes]] | None, so_far: list[Exit], prog: str) -> int:
+    """Check the files of a call no kept report answers, and keep its report if it may be."""
     # Lazy for start-up speed: a kept report needs neither the compiler nor the verifier.
     from app.mclc_files import check_files
     from app.reports.duration import parse_limits
