@@ -74,7 +74,7 @@ def parser(name: str, **options: Any) -> lark.Lark:
 
 
 # How the standalone module is made (a part of its key): change it when build() changes.
-GENERATOR = "lark.tools.standalone, its logging quiet"
+GENERATOR = "lark.tools.standalone, its logging quiet, no zlib nor base64"
 
 
 def drop(*args: object, **kwargs: object) -> None:
@@ -128,8 +128,12 @@ def standalone(name: str, **options: Any) -> Standalone:
         out = io.StringIO()
         generate(lark.Lark(text, **options), out=out)
         # its logging is QUIET_LOGGING's (the module's own import of logging, if lark ever
-        # writes it otherwise, would stand and log as lark does)
+        # writes it otherwise, would stand and log as lark does); and zlib and base64, which
+        # it imports to read its tables from a string (1 ms of every call), are left out where
+        # the tables are Python literals (pickle stays: mcl.cache has it loaded)
         source = out.getvalue().replace("\nimport logging\n", "\n", 1)
+        if "\nDATA = (\n{" in source:
+            source = source.replace("\nimport pickle, zlib, base64\n", "\nimport pickle\n", 1)
         return compile(source, f"<the standalone parser of {name}>", "exec")
 
     def save(code: types.CodeType, f: IO[bytes]) -> None:
