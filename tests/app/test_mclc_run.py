@@ -55,3 +55,13 @@ def test_a_call_with_output_files_writes_them_whole(tmp_path: Path) -> None:
     done = call("run", [DAM, "--no-verify", "--pnml", str(net)], tmp_path)
     assert done.returncode == 0, done.stderr
     assert net.read_text("utf-8").rstrip().endswith("</pnml>")
+
+
+def test_the_call_runs_with_the_collector_seldom_called(tmp_path: Path) -> None:
+    code = ("import gc, app.mclc\n"
+            "app.mclc.main = lambda: print(gc.get_threshold()) or 3\n"
+            "app.mclc.run()\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=REPO, env=subprocess_env(MCL_CACHE_DIR=str(tmp_path)),
+                          timeout=budget(60))
+    assert (done.returncode, done.stdout) == (3, "(200000, 30, 30)\n")
