@@ -178,17 +178,23 @@ class Graph:
 
     def acyclic(self, arcs: list[bool]) -> bool:
         """Whether the arcs ``arcs`` marks make no cycle. Markings are numbered breadth
-        first, so a cycle has an arc to a marking numbered no higher than its source; where
-        there is one, Kahn's algorithm decides (every marking is peeled once no marked arc
-        enters it)."""
-        if not any(d <= s for s, d in compress(zip(self.src, self.dst), arcs)):
+        first, so a cycle has an arc to a marking numbered no higher than its source (a
+        *back* arc), and lies among the markings reachable from the targets of back arcs;
+        Kahn's algorithm decides among those alone (every marking is peeled once no marked
+        arc enters it): a few hundred of the dam's 3,155 markings."""
+        back = [d for s, d in compress(zip(self.src, self.dst), arcs) if d <= s]
+        if not back:
             return True
-        entering = [0] * len(self.order)
-        for d in compress(self.dst, arcs):
-            entering[d] += 1
-        left = sum(entering)
+        within = self.forward(back, arcs)  # closed: a marked arc from it stays in it
+        among = list(compress(range(len(self.order)), within))
         starts, dst = self.starts, self.dst
-        todo = [m for m, k in enumerate(entering) if k == 0]
+        entering = dict.fromkeys(among, 0)
+        for m in among:
+            for a in range(starts[m], starts[m + 1]):
+                if arcs[a]:
+                    entering[dst[a]] += 1
+        left = sum(entering.values())
+        todo = [m for m in among if entering[m] == 0]
         while todo:
             m = todo.pop()
             for a in range(starts[m], starts[m + 1]):

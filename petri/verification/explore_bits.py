@@ -134,7 +134,7 @@ def _search_ints(net: Net, readers: list[tuple[int, ...]], rank: list[int], max_
     index_get, order_append = index.get, order.append
     src_append, dst_append, trs_append = src.append, dst.append, trs.append
     by_rank = rank.__getitem__
-    moves = [(~pre[t], post[t]) for t in range(len(net.transitions))]
+    moves = [(pre[t], ~pre[t], post[t]) for t in range(len(net.transitions))]
     looked_up = sum(1 << p for p, ts in enumerate(readers) if ts)  # places some t is under
     while head < len(order):
         m = order[head]
@@ -146,11 +146,12 @@ def _search_ints(net: Net, readers: list[tuple[int, ...]], rank: list[int], max_
             low = bits & -bits
             candidates += readers[low.bit_length() - 1]
             bits ^= low
-        enabled = [t for t in candidates if m & pre[t] == pre[t]]
-        if len(enabled) > 1:
-            enabled.sort(key=by_rank)
-        for t in enabled:
-            off, on = moves[t]
+        if len(candidates) > 1:
+            candidates.sort(key=by_rank)
+        for t in candidates:
+            needs, off, on = moves[t]
+            if m & needs != needs:
+                continue  # not enabled
             rest = m & off
             if rest & on:
                 return None  # a second token in a place: not 1-safe

@@ -142,3 +142,14 @@ def test_another_generator_is_another_standalone_entry(
     grammars.standalone("mcl.lark", **OPTIONS)
     after = {p.name for p in folder.iterdir()}
     assert len(after) == 1 and after != before
+
+
+def test_a_loaded_standalone_parser_imports_neither_zlib_nor_base64(folder: Path) -> None:
+    grammars.standalone("mcl.lark", **OPTIONS)  # its tables are literals: nothing to decode
+    code = ("import sys; from mcl.parser import parse; from diagnostics import Source; "
+            "parse(Source('m.mcl', 'MISSION { GoTo((0, 0, 1, 0)) }')); "
+            "print(sorted(m for m in sys.modules if m in ('zlib', 'base64', 'binascii')))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=subprocess_env(MCL_CACHE_DIR=str(folder)), cwd=REPO, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "[]"
