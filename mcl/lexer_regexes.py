@@ -30,14 +30,20 @@ Parts = tuple[int, list[int], int, dict[str, int], tuple[Any, ...]]
 
 # Python's own modules behind re.compile (re._parser and re._compiler since 3.11): parsing a
 # pattern, writing its code, and making the pattern from that code.
-_PARSER: Any = importlib.import_module("re._parser")
-_COMPILER: Any = importlib.import_module("re._compiler")
-_ENGINE: Any = importlib.import_module("_sre")
+# A Python whose re has them elsewhere keeps no pattern: each is compiled by re as always.
+try:
+    _PARSER: Any = importlib.import_module("re._parser")
+    _COMPILER: Any = importlib.import_module("re._compiler")
+    _ENGINE: Any = importlib.import_module("_sre")
+except ImportError:  # pragma: no cover - not in Python 3.11 to 3.13
+    _PARSER = _COMPILER = _ENGINE = None
 
 
 def parts_of(pattern: str, flags: int) -> Parts | None:
     """What ``re.compile(pattern, flags)`` makes the pattern from, as re._compiler.compile
     computes it; None where what it makes differs from re.compile's (another Python's re)."""
+    if _ENGINE is None:
+        return None
     try:
         parsed = _PARSER.parse(pattern, flags)
         code = _COMPILER._code(parsed, flags)
@@ -95,7 +101,7 @@ def kept(regexes: dict[tuple[str, int], Parts]) -> types.ModuleType:
         if found is None:
             parts = regexes.get(key)
             try:
-                found = (re.compile(pattern, flags) if parts is None
+                found = (re.compile(pattern, flags) if parts is None or _ENGINE is None
                          else _ENGINE.compile(pattern, *parts))
             except (RuntimeError, TypeError, ValueError):  # code this engine refuses
                 found = re.compile(pattern, flags)
