@@ -52,8 +52,10 @@ def align(prior: FloatArray, prior_std: FloatArray, pairs: Sequence[Pair], k: In
     if not use_prior:  # only the anchor keeps its position; the others, a loose leash
         std[:, :2] = 100.0
         std[anchor, :2] = prior_std[anchor, :2]
-    ii = np.concatenate([np.full(len(p.pi), p.i) for p in pairs]) if pairs else np.zeros(0, int)
-    jj = np.concatenate([np.full(len(p.pj), p.j) for p in pairs]) if pairs else np.zeros(0, int)
+    sizes = np.array([len(p.pi) for p in pairs], dtype=np.intp)  # each pair's points, in order
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.intp)
+    ii = np.repeat(np.array([p.i for p in pairs], dtype=int), sizes)
+    jj = np.repeat(np.array([p.j for p in pairs], dtype=int), sizes)
     pi = np.concatenate([p.pi for p in pairs]) if pairs else np.zeros((0, 2))
     pj = np.concatenate([p.pj for p in pairs]) if pairs else np.zeros((0, 2))
     ai, bi = k.slopes(pi)
@@ -96,25 +98,38 @@ def align(prior: FloatArray, prior_std: FloatArray, pairs: Sequence[Pair], k: In
         q, its = _gauss_newton(fun, jac, q, max_iterations)
         iterations += its
         r = residuals(q)[:2 * m].reshape(-1, 2)
-        e = np.hypot(r[:, 0], r[:, 1])
-        bad = []
-        at = 0
-        for p in pairs:
-            size = len(p.pi)
-            if keep[at] and float(np.median(e[at:at + size])) > 5.0:
-                bad.append((p, at, size))
-            at += size
+        medians = pair_medians(np.hypot(r[:, 0], r[:, 1]), sizes)
+        bad = [(p, at, size, float(med)) for p, at, size, med in zip(pairs, starts, sizes, medians)
+               if keep[at] and med > 5.0]
         if not bad:
             break
-        worst = max(float(np.median(e[at:at + size])) for _, at, size in bad)
-        for p, at, size in bad:  # the worst first: a wrong pair also strains its neighbours
-            if float(np.median(e[at:at + size])) < 0.5 * worst:
+        worst = max(med for *_, med in bad)
+        for p, at, size, med in bad:  # the worst first: a wrong pair also strains its neighbours
+            if med < 0.5 * worst:
                 continue
             keep[at:at + size] = False
             rejected.append((p.i, p.j))
     rows = np.flatnonzero(np.concatenate([np.repeat(keep, 2), np.ones(4 * n, bool)]))
     cost = 0.5 * float(np.sum(residuals(q)[rows] ** 2))
     return Alignment(q.reshape(n, 4), cost, iterations, rejected)
+
+
+def pair_medians(e: FloatArray, sizes: npt.NDArray[np.intp]) -> FloatArray:
+    """The median of each pair's errors, ``e`` holding the pairs' errors one pair after
+    another (``sizes`` of them each): the numbers ``np.median`` gives pair by pair (the middle
+    one, or the mean of the middle two), at once — 2,863 calls of it took 0.17 s a round for the
+    dam mission."""
+    if sizes.size == 0:
+        return np.zeros(0)
+    if not np.isfinite(e).all() or sizes.min() < 1:  # np.median's own handling of NaN
+        bounds = np.concatenate([[0], np.cumsum(sizes)])
+        return np.array([np.median(e[a:b]) if b > a else np.nan
+                         for a, b in zip(bounds[:-1], bounds[1:])])
+    table = np.full((sizes.size, int(sizes.max())), np.inf)
+    table[np.arange(table.shape[1])[None, :] < sizes[:, None]] = e
+    table.sort(axis=1)
+    rows = np.arange(sizes.size)
+    return np.asarray((table[rows, (sizes - 1) // 2] + table[rows, sizes // 2]) / 2.0)
 
 
 def _gauss_newton(fun: Callable[[FloatArray], FloatArray],

@@ -14,7 +14,8 @@ from __future__ import annotations
 import json
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -83,10 +84,10 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
         f.truth is not None for f in survey.frames) else None
     measuring = measure and truth is not None
     detectors = Detectors()
-    with ThreadPoolExecutor(max(1, min(4, os.cpu_count() or 1))) as workers:  # OpenCV frees
-        # the GIL. What the measuring needs is made beside the stages that do not use it:
-        # the wall's texture beside the features, the alignment without the prior beside
-        # the blending.
+    with opencv_threads(1), ThreadPoolExecutor(max(1, min(4, os.cpu_count() or 1))) as \
+            workers:  # OpenCV frees the GIL. What the measuring needs is made beside the
+        # stages that do not use it: the wall's texture beside the features, the alignment
+        # without the prior beside the blending.
         if measuring and texture is None:
             texture = workers.submit(accuracy.truth_texture, survey.meta)
         images = prepare(survey, workers, detectors)
@@ -115,6 +116,21 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
                      alone.result() if alone is not None else None,
                      texture.result() if texture is not None and measuring else None)
     return result
+
+
+@contextmanager
+def opencv_threads(n: int) -> Iterator[None]:
+    """OpenCV's own pool held to ``n`` threads meanwhile (then put back): the pipeline's
+    threads are one a core already, and OpenCV's pool beside them only takes turns with them
+    (its threads also spin a while after each call, taking a core from the alignment)."""
+    import cv2
+
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(n)
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(before)
 
 
 class Clock:
@@ -215,13 +231,12 @@ def write(result: Result, prefix: Path) -> dict[str, Path]:
     paths = {"mosaic": prefix.with_name(prefix.name + ".mosaic.png"),
              "coverage": prefix.with_name(prefix.name + ".coverage.png"),
              "figures": prefix.with_name(prefix.name + ".mosaic.json")}
-    mosaic, frame = annotate(result.mosaic, result.canvas)
-    cv2.imwrite(str(paths["mosaic"]), mosaic)
-    rows = result.canvas.rows  # the coverage map, then its legend under it
-    coverage, _ = annotate(result.coverage[:rows], result.canvas)
-    legend = np.zeros((result.coverage.shape[0] - rows, coverage.shape[1], 3), np.uint8)
-    legend[:, frame.left:frame.left + result.coverage.shape[1]] = result.coverage[rows:]
-    cv2.imwrite(str(paths["coverage"]), np.vstack([coverage, legend]))
+    with ThreadPoolExecutor(1, thread_name_prefix="coverage") as beside:  # the two PNGs
+        # encoded at once (OpenCV releases the interpreter's lock)
+        coverage = beside.submit(_write_coverage, result, paths["coverage"])
+        mosaic, frame = annotate(result.mosaic, result.canvas)
+        cv2.imwrite(str(paths["mosaic"]), mosaic)
+        coverage.result()
     doc = dict(result.figures)
     doc["picture"] = frame.json()  # where the canvas lies in both PNGs, the grid's lines
     doc["set_aside"] = {str(k): v for k, v in sorted(result.skipped.items())}
@@ -231,6 +246,17 @@ def write(result: Result, prefix: Path) -> dict[str, Path]:
                     "wall's coordinates, a grid and a scale bar (mosaic/annotate.py)")
     paths["figures"].write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
     return paths
+
+
+def _write_coverage(result: Result, path: Path) -> None:
+    """The coverage map, framed as the mosaic is, its legend under it, written as a PNG."""
+    import cv2
+
+    rows = result.canvas.rows
+    coverage, frame = annotate(result.coverage[:rows], result.canvas)
+    legend = np.zeros((result.coverage.shape[0] - rows, coverage.shape[1], 3), np.uint8)
+    legend[:, frame.left:frame.left + result.coverage.shape[1]] = result.coverage[rows:]
+    cv2.imwrite(str(path), np.vstack([coverage, legend]))
 
 
 def summary_lines(result: Result, paths: dict[str, Path]) -> list[str]:

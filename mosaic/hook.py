@@ -10,7 +10,7 @@ figures; :func:`detach` stops the camera's worker (every exit of ``mcl run`` cal
 from __future__ import annotations
 
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -46,9 +46,11 @@ def report(stack: Any, log_path: Path, say: Any) -> None:
 
     try:
         with ThreadPoolExecutor(1, thread_name_prefix="truth") as early:
-            # The ground truth's texture is made while the camera's worker writes its last
-            # images, on the core the simulation has left, not beside the features.
-            texture = early.submit(truth_texture, {"texture": asdict(recorder.texture_spec)})
+            # The ground truth's texture is the camera worker's; else it is made while the
+            # worker writes its last images, on the core the simulation has left.
+            made = recorder.wall_texture()  # the worker's: not made a second time
+            texture = early.submit(truth_texture, {"texture": asdict(recorder.texture_spec)}) \
+                if made is None else _done(made)
             recorder.flush()  # the camera's worker may still be writing the last images
             started = time.perf_counter()
             result = build(recorder.folder, memory=recorder.frame,  # the pixels, not the PNGs
@@ -70,3 +72,10 @@ def report(stack: Any, log_path: Path, say: Any) -> None:
     if took > 60:
         say(f"  (making and measuring the mosaic took {took:.0f} s, over a minute; "
             f"'mcl mosaic {log_path}' remakes it)")
+
+
+def _done(value: Any) -> Future[Any]:
+    """A future already holding ``value``."""
+    done: Future[Any] = Future()
+    done.set_result(value)
+    return done

@@ -65,6 +65,14 @@ def correct(img: Image, field: FloatImage, level: float = 128.0) -> FloatImage:
     return out
 
 
+def grey(img: FloatImage) -> FloatImage:
+    """A corrected colour image's grey (float), which :func:`grey_u8` and :func:`textureless`
+    also take (converted once where both are wanted)."""
+    import cv2
+
+    return np.asarray(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY), dtype=np.float32)
+
+
 def grey_u8(img: FloatImage) -> Image:
     """A corrected colour image as 8-bit grey with local contrast stretched (for features)."""
     import cv2

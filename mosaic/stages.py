@@ -69,10 +69,11 @@ def prepare(survey: Survey, workers: ThreadPoolExecutor, detectors: Detectors) -
         if img is None:
             return None, None, None
         corrected = illumination.correct(img, field_)
-        why = illumination.textureless(corrected)
+        grey = illumination.grey(corrected)  # once, for both steps below
+        why = illumination.textureless(grey)
         if why is not None:
             return why, None, None
-        feat = detectors.get().detect(illumination.grey_u8(corrected))
+        feat = detectors.get().detect(illumination.grey_u8(grey))
         return None, np.asarray(np.clip(corrected, 0, 255), dtype=np.uint8), feat
 
     feats: list[registration.Features | None] = []

@@ -19,7 +19,7 @@ from typing import Any
 from vehicle.sensors.camera import WallCamera
 from vehicle.sensors.image_worker import ImageWorker
 from vehicle.sensors.image_writer import INDEX_FIELDS, ImageWriter, Pose
-from vehicle.sensors.wall_texture import Image, TextureSpec
+from vehicle.sensors.wall_texture import Image, TextureSpec, WallTexture
 
 __all__ = ["INDEX_FIELDS", "ImageRecorder"]
 
@@ -75,6 +75,16 @@ class ImageRecorder:
     def texture_spec(self) -> TextureSpec:
         """The wall's texture the images are rendered from (camera.json's ``texture``)."""
         return self.texture or TextureSpec(seed=self.seed)
+
+    def wall_texture(self) -> WallTexture | None:
+        """The wall's texture the images are rendered from: the writer's, or a copy of the
+        worker's once made (None: not yet, or the sink is closed)."""
+        if isinstance(self.sink, ImageWorker):
+            image = self.sink.texture()
+            return None if image is None else WallTexture(self.texture_spec, image)
+        if isinstance(self.sink, ImageWriter):
+            return self.sink.camera().texture  # made with the first image
+        return None
 
     @property
     def failure(self) -> str:

@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from vehicle.sensors.image_writer import ImageWriter, Pose
-from vehicle.sensors.shared_frames import SharedFrames
+from vehicle.sensors.shared_frames import SharedFrames, SharedImage
 from vehicle.sensors.wall_texture import Image, TextureSpec
 
 POLL = 1.0  # s: how often a waiting side checks that the other is still there
@@ -49,12 +49,13 @@ class WorkerError(OSError):
 
 
 def serve(jobs: Any, answers: Any, folder: str, seed: int, wall_curvature: float,
-          texture: TextureSpec | None, parent: int) -> None:
+          texture: TextureSpec | None, parent: int, texture_block: str | None = None) -> None:
     """The worker's loop (in the child process): each job is ``("plan", path)``,
     ``("image", index, name, t, pose, nav, block)`` (``block``: the name of the shared memory
     where the image's pixels go, when it is a new one; vehicle/sensors/shared_frames.py) or ``("flush", n)`` (answered with ``("flushed",
     n)``, or ``("error", text)`` once a write failed); ``None`` ends it. The wall's texture is
-    made first, while the simulation starts."""
+    made first, while the simulation starts, and copied into the shared memory named
+    ``texture_block`` (the mosaic measures against it)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the terminal's: the parent decides
     signal.signal(signal.SIGHUP, signal.SIG_IGN)
     import cv2  # the worker's own: one core, the other is the simulation's
@@ -63,7 +64,11 @@ def serve(jobs: Any, answers: Any, folder: str, seed: int, wall_curvature: float
     frames = SharedFrames(owner=False)  # the pixels for the mosaic, beside the PNGs
     writer = ImageWriter(Path(folder), seed=seed, wall_curvature=wall_curvature,
                          texture=texture, threads=THREADS, on_image=frames.put)
-    writer.camera()
+    made = writer.camera().texture.image
+    if texture_block is not None:
+        shared = SharedImage(made.shape, texture_block)
+        shared.put(made)
+        shared.close()
     failed: str | None = None
     while True:
         try:
@@ -112,11 +117,13 @@ class ImageWorker:
         self._flushes = 0
         self.failure = ""  # why images stopped being kept, once a flush has said it
         self.frames = SharedFrames(owner=True)
+        rows, cols = (texture or TextureSpec(seed=seed)).shape
+        self.wall = SharedImage((rows, cols, 3))  # the worker's wall texture, once made
         self._lock = threading.Lock()
         self.process = ctx.Process(
             target=serve, name="camera",
             args=(self._jobs, self._answers, str(folder), seed, wall_curvature, texture,
-                  os.getpid()), daemon=True)
+                  os.getpid(), self.wall.name), daemon=True)
         self.process.start()
         atexit.register(self.close, False)  # every exit of the interpreter stops it
 
@@ -137,6 +144,11 @@ class ImageWorker:
         """Image ``index``'s pixels as the worker rendered them (after :meth:`flush`), in
         shared memory until :meth:`close`; None if they are only in its PNG."""
         return self.frames.get(index)
+
+    def texture(self) -> Image | None:
+        """A copy of the wall's texture the worker made (None before it has, or once
+        closed)."""
+        return self.wall.get()
 
     def send(self, *job: Any) -> None:
         if not self.process.is_alive():
@@ -189,6 +201,7 @@ class ImageWorker:
     def _release(self) -> None:
         atexit.unregister(self.close)
         self.frames.close()
+        self.wall.close()
         for q in (self._jobs, self._answers):
             q.close()
             q.cancel_join_thread()  # never block the exit on a job no one will read

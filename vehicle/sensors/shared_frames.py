@@ -88,6 +88,46 @@ class SharedFrames:
                 block.unlink()
 
 
+class SharedImage:
+    """One image of a known ``shape`` in a block of shared memory, behind a byte set once it
+    is there: the wall's texture, which the camera's worker makes at its start and the mosaic
+    measures against at the end of the run (0.8 s of CPU not spent again). The owner (the main
+    process) makes the block and removes it (:meth:`close`); the worker opens it by
+    :attr:`name` and puts the image in (:meth:`put`)."""
+
+    def __init__(self, shape: tuple[int, ...], name: str | None = None) -> None:
+        self.shape, self.owner = shape, name is None
+        size = 1 + int(np.prod(shape))
+        self.block: shared_memory.SharedMemory | None = (
+            shared_memory.SharedMemory(create=True, size=size) if name is None
+            else shared_memory.SharedMemory(name=name))
+        self.name = self.block.name
+
+    def put(self, img: Image) -> bool:
+        """(Worker) Copy the image in; False if it has another shape."""
+        if self.block is None or img.shape != self.shape:
+            return False
+        buf = _buffer(self.block)
+        np.ndarray(self.shape, dtype=np.uint8, buffer=buf, offset=1)[...] = img
+        buf[0] = 1
+        return True
+
+    def get(self) -> Image | None:
+        """(Owner) A copy of the image, None if the worker has not put it there (yet)."""
+        if self.block is None or _buffer(self.block)[0] != 1:
+            return None
+        return np.ndarray(self.shape, dtype=np.uint8, buffer=_buffer(self.block),
+                          offset=1).copy()
+
+    def close(self) -> None:
+        """Let go of the block; the owner removes it. Safe to call twice."""
+        block, self.block = self.block, None
+        if block is not None:
+            block.close()
+            if self.owner:
+                block.unlink()
+
+
 def _buffer(block: shared_memory.SharedMemory) -> memoryview:
     """The block's memory (open until closed)."""
     buf = block.buf

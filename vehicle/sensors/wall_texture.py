@@ -123,9 +123,11 @@ def make_texture(spec: TextureSpec) -> Image:
 class WallTexture:
     """The ground-truth wall image, made on first use (about a second)."""
 
-    def __init__(self, spec: TextureSpec | None = None) -> None:
+    def __init__(self, spec: TextureSpec | None = None, image: Image | None = None) -> None:
+        """``image``: the texture of ``spec`` already made (by another process), else it is
+        made on first use."""
         self.spec = spec or TextureSpec()
-        self._image: Image | None = None
+        self._image: Image | None = image
 
     @property
     def image(self) -> Image:

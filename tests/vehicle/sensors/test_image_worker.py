@@ -86,6 +86,24 @@ def test_the_worker_writes_the_images_the_main_process_would(tmp_path: Path) -> 
     here.close()
 
 
+def test_the_wall_texture_the_worker_made_is_handed_to_the_main_process(tmp_path: Path) -> None:
+    """The mosaic measures against the texture the worker made (not made a second time): the
+    copy in shared memory is the texture of the run's spec, pixel for pixel, and is gone with
+    the worker; the in-process writer hands its own."""
+    from vehicle.sensors.wall_texture import make_texture
+
+    truth = make_texture(SPEC)
+    there = _record(tmp_path / "there.images", background=True)
+    here = _record(tmp_path / "here.images", background=False)
+    for rec in (there, here):
+        tex = rec.wall_texture()
+        assert tex is not None and tex.spec == SPEC
+        assert tex.image.shape == truth.shape and np.array_equal(tex.image, truth)
+    there.close()
+    here.close()
+    assert there.wall_texture() is None and here.wall_texture() is None
+
+
 def test_images_lit_in_threads_are_those_lit_one_after_another(tmp_path: Path) -> None:
     """The worker's writer draws each image's noise in order and lights, exposes and encodes
     the images in threads, more of them in flight than it lets wait: the files, index.csv's

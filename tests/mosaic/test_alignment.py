@@ -1,0 +1,38 @@
+"""mosaic/alignment.py's pair_medians: the median of each pair's errors, all pairs at once,
+is the number np.median gives pair by pair (the alignment drops the pairs whose median is
+over 5 match_std, so a different number could drop another pair)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mosaic.alignment import pair_medians
+
+
+def _one_by_one(e: np.ndarray, sizes: np.ndarray) -> np.ndarray:
+    bounds = np.concatenate([[0], np.cumsum(sizes)])
+    return np.array([np.median(e[a:b]) for a, b in zip(bounds[:-1], bounds[1:])])
+
+
+def test_pair_medians_are_np_median_pair_by_pair() -> None:
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        sizes = rng.integers(1, 17, rng.integers(1, 40)).astype(np.intp)
+        e = rng.exponential(2.0, int(sizes.sum()))
+        if rng.random() < 0.3:  # ties
+            e = np.round(e)
+        got = pair_medians(e, sizes)
+        assert got.shape == sizes.shape
+        assert np.array_equal(got, _one_by_one(e, sizes))  # to the last bit
+
+
+def test_pair_medians_of_odd_and_even_sizes() -> None:
+    e = np.array([3.0, 1.0, 2.0, 10.0, 4.0, 6.0, 1.0, 7.0])
+    assert pair_medians(e, np.array([3, 2, 3], dtype=np.intp)).tolist() == [2.0, 7.0, 6.0]
+
+
+def test_pair_medians_with_a_nan_are_np_median_s() -> None:
+    e = np.array([1.0, np.nan, 2.0, 3.0, 4.0])
+    got = pair_medians(e, np.array([2, 3], dtype=np.intp))
+    assert np.isnan(got[0]) and got[1] == 3.0
+    assert pair_medians(np.zeros(0), np.zeros(0, dtype=np.intp)).size == 0
