@@ -12,13 +12,6 @@ import pytest
 from mcl import cache
 
 
-@pytest.fixture
-def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    place = tmp_path / "cache"
-    monkeypatch.setenv("MCL_CACHE_DIR", str(place))
-    return place
-
-
 class Builder:
     """A build that counts its calls and returns a fresh value each time."""
 

@@ -14,13 +14,6 @@ import pytest
 from mcl import dataclass_methods
 
 
-@pytest.fixture
-def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    place = tmp_path / "cache"
-    monkeypatch.setenv("MCL_CACHE_DIR", str(place))
-    return place
-
-
 class Counted:
     """dataclass_methods.compiled, counting the sources it compiles."""
 

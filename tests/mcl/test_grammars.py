@@ -18,13 +18,6 @@ OPTIONS = {"parser": "lalr", "propagate_positions": True, "maybe_placeholders": 
            "start": ["start", "value"]}
 
 
-@pytest.fixture
-def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    place = tmp_path / "cache"
-    monkeypatch.setenv("MCL_CACHE_DIR", str(place))
-    return place
-
-
 def shape(tree: lark.Tree[lark.Token]) -> list[tuple[str, int, int, int, int]]:
     """Every subtree's rule and place: what the syntax tree's spans are made from."""
     return [(t.data, t.meta.line, t.meta.column, t.meta.end_line, t.meta.end_column)

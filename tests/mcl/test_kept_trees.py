@@ -17,13 +17,6 @@ from tests.support import MISSIONS
 
 
 @pytest.fixture
-def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    place = tmp_path / "cache"
-    monkeypatch.setenv("MCL_CACHE_DIR", str(place))
-    return place
-
-
-@pytest.fixture
 def counted(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     """The texts parse_text parsed (not loaded from the cache)."""
     texts: list[str] = []

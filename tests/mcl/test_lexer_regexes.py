@@ -20,13 +20,6 @@ PATTERNS = [("(?P<NAME>[A-Za-z_][A-Za-z0-9_]*)|(?P<NUMBER>[0-9]+(?:\\.[0-9]*)?)"
             ('".*?(?<!\\\\)(\\\\\\\\)*?"', 0)]
 
 
-@pytest.fixture
-def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    place = tmp_path / "cache"
-    monkeypatch.setenv("MCL_CACHE_DIR", str(place))
-    return place
-
-
 @pytest.mark.parametrize(("pattern", "flags"), PATTERNS)
 def test_a_pattern_made_from_its_kept_parts_is_the_one_re_compiles(pattern: str,
                                                                    flags: int) -> None:

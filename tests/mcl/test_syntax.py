@@ -6,19 +6,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import lark
-import pytest
 
 from mcl import grammars, syntax
 
 OPTIONS = {"parser": "lalr", "propagate_positions": True, "maybe_placeholders": True,
            "start": ["start", "value"]}
-
-
-@pytest.fixture
-def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    place = tmp_path / "cache"
-    monkeypatch.setenv("MCL_CACHE_DIR", str(place))
-    return place
 
 
 def test_tokens_and_trees_of_either_parser_are_recognised(folder: Path) -> None:

@@ -31,13 +31,6 @@ SHORT = "MISSION short { GoTo((0, 0, 5, 0), timeout = 60 s); Surface() }"
 FAILS = "MISSION {\n  PARALLEL { GoTo((0, 0, 5, 0)) } AND { Surface() }\n}\n"  # dof-exclusive fails
 
 
-@pytest.fixture
-def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    place = tmp_path / "cache"
-    monkeypatch.setenv("MCL_CACHE_DIR", str(place))
-    return place
-
-
 class Counting:
     """verify_mission, counting its calls."""
 
