@@ -92,8 +92,8 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
             texture = workers.submit(accuracy.truth_texture, survey.meta)
         images = prepare(survey, workers, detectors)
         survey.memory = None
-        released = workers.submit(release) if release is not None else None  # the camera's
-        # worker stopped beside the registration (what it raises is raised below)
+        if release is not None:
+            release()
         clock.lap("features")
         matcher = Matcher(survey.k, images.features, workers, detectors, size)
         pairs = register(matcher, prior, images.usable, per_image)
@@ -118,8 +118,6 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
             _measure(result, truth, reg.result(), prior, blended.count,
                      alone.result() if alone is not None else None,
                      texture.result() if texture is not None and measuring else None)
-        if released is not None:
-            released.result()
     return result
 
 
