@@ -28,14 +28,15 @@ NO_DATA = (40, 40, 40)  # B G R of wall no image saw
 
 
 class Warped(NamedTuple):
-    """An image warped onto the canvas: its box (rows y0:y1, columns x0:x1) and the weighted
-    B, G, R and the weight there."""
+    """An image warped onto the canvas: its box (rows y0:y1, columns x0:x1), the weighted
+    B, G, R and the weight there, and where it saw the wall (the weight above 1e-7)."""
 
     y0: int
     y1: int
     x0: int
     x1: int
     out: FloatImage
+    seen: npt.NDArray[np.bool_]
 
 
 @dataclass
@@ -125,14 +126,15 @@ class Blender:
         src = cv2.merge([*cv2.split(cv2.multiply(img, self.w3, dtype=cv2.CV_32F)), self.w])
         out = cv2.warpPerspective(src, shift, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
                                   borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-        return Warped(y0, y1, x0, x1, np.asarray(out, dtype=np.float32))
+        warped: FloatImage = np.asarray(out, dtype=np.float32)
+        return Warped(y0, y1, x0, x1, warped, warped[:, :, 3] > 1e-7)  # in the warping thread
 
     def accumulate(self, warped: Warped) -> None:
         """Add a warped image to the canvas (in the images' order: the sums, to the last
         bit, do not depend on how many threads warped them)."""
-        y0, y1, x0, x1, out = warped
+        y0, y1, x0, x1, out, seen = warped
         self.acc[y0:y1, x0:x1] += out
-        self.count[y0:y1, x0:x1] += out[:, :, 3] > 1e-7
+        self.count[y0:y1, x0:x1] += seen
 
     @property
     def weight(self) -> FloatImage:

@@ -103,6 +103,8 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
         alone = workers.submit(_without_prior, survey, images.skipped, prior, prior_std,
                                list(pairs.found)) if (
             measuring and compare_without_prior and pairs.found) else None
+        reg = workers.submit(accuracy.registration_errors, list(pairs.found), truth,
+                             survey.k) if measuring and truth is not None else None  # beside the blending
         held = image_files.survey_bytes(len(survey.frames), survey.k.width, survey.k.height)
         blended = blend(survey, images, aligned.poses, size, mm_per_px, workers,
                         min(60_000_000, image_files.canvas_pixels(max_bytes, held)))
@@ -112,7 +114,8 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
                         aligned.poses, images.skipped, figures)
         if measuring:
             assert truth is not None
-            _measure(result, truth, pairs.found, prior, blended.count,
+            assert reg is not None
+            _measure(result, truth, reg.result(), prior, blended.count,
                      alone.result() if alone is not None else None,
                      texture.result() if texture is not None and measuring else None)
     return result
@@ -198,14 +201,14 @@ def _without_prior(survey: Survey, skipped: dict[int, str], prior: FloatArray,
                            anchor=anchor).poses
 
 
-def _measure(result: Result, truth: FloatArray, pairs: list[registration.Pair],
+def _measure(result: Result, truth: FloatArray, reg: FloatArray,
              prior: FloatArray, count: npt.NDArray[np.uint16], alone: FloatArray | None,
              texture: WallTexture | None) -> None:
-    """The figures against the ground truth; ``alone``: the poses aligned without the prior
-    (None: not compared); ``texture``: the run's wall texture, if already made."""
+    """The figures against the ground truth; ``reg``: the registration error of each pair
+    registered (:func:`accuracy.registration_errors`); ``alone``: the poses aligned without
+    the prior (None: not compared); ``texture``: the run's wall texture, if already made."""
     k, fig = result.survey.k, result.figures
     used = np.array([f.index not in result.skipped for f in result.survey.frames])
-    reg = accuracy.registration_errors(pairs, truth, k)
     fig["registration_error_px"] = {
         "median": round(float(np.median(reg)), 3) if reg.size else None,
         "rms": round(float(np.sqrt(np.mean(reg**2))), 3) if reg.size else None,

@@ -31,6 +31,7 @@ injectable functions. Units: m, rad, s.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -146,7 +147,7 @@ class Navigator:
         x, t = self.x, dt
         c, s = math.cos(x[PSI]), math.sin(x[PSI])
         u, v = x[U], x[V]
-        F = np.eye(8)
+        F = IDENTITY.copy()
         F[X, PSI], F[X, U], F[X, V] = -(u * s + v * c) * t, c * t, -s * t
         F[Y, PSI], F[Y, U], F[Y, V] = (u * c - v * s) * t, s * t, c * t
         F[Z, W] = F[PSI, R] = t
@@ -248,19 +249,28 @@ class Navigator:
         P = self.P
         self.y = residual(z, H @ self.x)
         self.S = H @ P @ H.T + RR
-        self.K = np.asarray(np.linalg.solve(self.S, H @ P).T, dtype=np.float64)  # P H^T S^-1
+        if self.S.shape == (1, 1):  # one measurement: what solve gives, without its calls
+            self.K = (H @ P).T * (1.0 / float(self.S[0, 0]))  # P H^T S^-1
+        else:
+            self.K = np.asarray(np.linalg.solve(self.S, H @ P).T, dtype=np.float64)
         self.x = self.x + self.K @ self.y
         self.x[PSI] = self.wrap_heading(float(self.x[PSI]))
         # Joseph form, P = (I - K H) P (I - K H)^T + K R K^T: symmetric and positive
         # semi-definite for any gain, unlike (I - K H) P which loses both to round-off.
-        I_KH = np.eye(8) - self.K @ H
+        I_KH = IDENTITY - self.K @ H
         self.P = I_KH @ P @ I_KH.T + self.K @ RR @ self.K.T
         self.x_post, self.P_post = self.x.copy(), self.P.copy()
 
 
+IDENTITY: FloatArray = np.eye(8)  # I of the state's size, never written to
+IDENTITY.setflags(write=False)
+
+
+@functools.cache
 def _rows(*indices: int) -> FloatArray:
-    """H selecting the given state elements."""
+    """H selecting the given state elements (made once for each, and never written to)."""
     H = np.zeros((len(indices), 8))
     for i, j in enumerate(indices):
         H[i, j] = 1.0
+    H.setflags(write=False)
     return H

@@ -74,6 +74,10 @@ class Pose2D:
     psi: float  # rad, heading
 
 
+IDENTITY: NDArray[np.float64] = np.eye(3)  # I of the tracker's state size, never written to
+IDENTITY.setflags(write=False)
+
+
 def echo_range(beam: SonarBeam, threshold: float = THRESHOLD,
                min_range: float = MIN_RANGE) -> float | None:
     """Range (m) of the beam's highest-intensity bin beyond the near field, or None when no bin
@@ -249,7 +253,7 @@ class WallTracker:
         dy = (u * math.sin(half) + v * math.cos(half)) * dt
         c, s = math.cos(v_theta), math.sin(v_theta)
         self.x = np.array([rho - dx * c - dy * s, wrap(v_theta - r * dt), w_theta])
-        F = np.eye(3)
+        F = IDENTITY.copy()
         F[0, 1] = dx * s - dy * c
         Qk = (self.Q if Q is None else np.asarray(Q, dtype=float)) * dt
         self.P = F @ self.P @ F.T + Qk
@@ -272,7 +276,8 @@ class WallTracker:
         R_line = H2G @ np.asarray(R, dtype=float).reshape(2, 2) @ H2G.T  # Eq. (28), 2nd term
         self.y = np.array([-h])  # the measurement says h = 0 (Eq. 25)
         S = H1 @ self.P @ H1.T + R_line
-        self.mahalanobis = float(self.y @ np.linalg.solve(S, self.y))  # Eq. (28)
+        # Eq. (28): y S^-1 y with S of one row, as np.linalg.solve works it out (y times 1/S)
+        self.mahalanobis = float(self.y[0] * (self.y[0] * (1.0 / float(S[0, 0]))))
         if self.mahalanobis >= self.gate:
             self.n_rejected += 1
             self.S = S
@@ -294,12 +299,14 @@ class WallTracker:
     def _correct(self, H: FloatArray, y: FloatArray, R: FloatArray) -> None:
         PHT = self.P @ H.T
         self.S = H @ PHT + R
-        self.K = PHT @ np.linalg.inv(self.S)
+        # S^-1: 1/S for the one row of every measurement here, as np.linalg.inv gives it
+        self.K = (PHT * (1.0 / float(self.S[0, 0])) if self.S.shape == (1, 1)
+                  else PHT @ np.linalg.inv(self.S))
         x = self.x + self.K @ y
         self.x = np.array([x[0], wrap(x[1]), wrap(x[2])])
         # Joseph form, P = (I - KH) P (I - KH)' + K R K': stays symmetric and positive
         # definite where the paper's Eq. (32), P = (I - KH) P, can lose both to round-off.
-        I_KH = np.eye(3) - self.K @ H
+        I_KH = IDENTITY - self.K @ H
         self.P = I_KH @ self.P @ I_KH.T + self.K @ R @ self.K.T
 
     def distance_to_wall(self) -> Estimate:

@@ -212,13 +212,14 @@ class IctineuParams:
 
 
 def allocate(tau: Sequence[float], params: IctineuParams,
-             pinv: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
+             pinv: FloatArray | None = None,
+             B: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """Thruster forces (N, each clipped to +/-thrust_max) for a demand (tau_u, tau_v, tau_w, tau_r)
     in N and N m, and the body force/torque they actually produce. ``pinv``: B's pseudo-inverse,
-    if already computed."""
-    B = params.allocation_matrix()
+    and ``B`` the allocation matrix, if already computed."""
+    B = params.allocation_matrix() if B is None else B
     f = (np.linalg.pinv(B) if pinv is None else pinv) @ np.asarray(tau, dtype=float)
-    f = np.clip(f, -params.thrust_max, params.thrust_max)
+    np.minimum(np.maximum(f, -params.thrust_max, out=f), params.thrust_max, out=f)  # the clip
     return f, B @ f
 
 
@@ -233,7 +234,9 @@ class Ictineu:
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self.t = t0
         self._M = self.params.inertia()
-        self._pinv: FloatArray = np.asarray(np.linalg.pinv(self.params.allocation_matrix()),
+        self._B = self.params.allocation_matrix()  # params are frozen: made once
+        self._disturbance_std = np.asarray(self.params.disturbance_std, dtype=float)
+        self._pinv: FloatArray = np.asarray(np.linalg.pinv(self._B),
                                             dtype=np.float64)
         self.thrust: FloatArray = np.zeros(6)  # N, last allocation
         self.tau_applied: FloatArray = np.zeros(4)  # N, N m, after saturation
@@ -271,13 +274,13 @@ class Ictineu:
         """Advance dt seconds (in sub-steps of at most params.dt) holding the demand tau."""
         if dt < 0.0:
             raise ValueError(f"dt must be >= 0, got {dt}")
-        f, applied = allocate(tau, self.params, self._pinv)
+        f, applied = allocate(tau, self.params, self._pinv, self._B)
         self.thrust, self.tau_applied = f, applied
         self.wall_contact = self.floor_contact = self.edge_contact = False
         n = max(1, math.ceil(dt / self.params.dt - 1e-9)) if dt > 0.0 else 0
         h = dt / n if n else 0.0
         ta = (float(applied[0]), float(applied[1]), float(applied[2]), float(applied[3]))
-        sd = np.asarray(self.params.disturbance_std, dtype=float)
+        sd = self._disturbance_std
         for _ in range(n):
             d = (self.rng.normal(0.0, 1.0, 4) * sd).tolist() if sd.any() else [0.0] * 4
             forces = (ta[0] + d[0], ta[1] + d[1], ta[2] + d[2], ta[3] + d[3])

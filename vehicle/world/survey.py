@@ -55,11 +55,11 @@ class Survey:
             true_d = self.env.distance_to_wall(s.x, s.y)
             nx, ny = self.env.wall_normal(self.env.wall_foot(s.x, s.y))
             true_h = wrap_angle(s.psi - math.atan2(ny, nx))
-            self.wall_dist_errors.append(tracker.distance_to_wall().value - true_d)
-            self.wall_head_errors.append(wrap_angle(tracker.relative_heading().value - true_h))
+            d, h = tracker.distance_to_wall().value, tracker.relative_heading().value
+            self.wall_dist_errors.append(d - true_d)
+            self.wall_head_errors.append(wrap_angle(h - true_h))
             if self._every % 4 == 1:  # the tracker against the truth, 5 a second
-                self.wall.append((t, tracker.distance_to_wall().value, true_d,
-                                  tracker.relative_heading().value, true_h))
+                self.wall.append((t, d, true_d, h, true_h))
 
     def usbl(self, fix: UsblFix, accepted: bool) -> None:
         x, y, z = (float(v) for v in fix.position)

@@ -333,6 +333,28 @@ def test_initialised_from_the_first_fix_and_the_compass() -> None:
     assert np.all(nav.P[:4, 4:] == 0.0) and np.all(np.diag(nav.P)[4:] > 0.0)
 
 
+def test_a_one_row_update_has_the_gain_of_the_general_solve() -> None:
+    """A heading or depth update (S of one row) takes S^-1 as 1/S: the gain, state and
+    covariance are those of K = solve(S, H P)^T, the route of the DVL's and the USBL's."""
+    R = usbl_covariance((-8.0, 7.5, 1.0), (-1.5, 3.0, 2.0))
+    nav = Navigator.from_first_fix([-1.5, 3.0, 2.0], R, math.radians(5.0))
+    nav.update_dvl([0.3, -0.1, 0.05])
+    nav.predict(0.4)
+    for update, z, row in ((nav.update_heading, 0.2, 3), (nav.update_depth, 2.1, 2)):
+        P, x = nav.P.copy(), nav.x.copy()
+        update(z)
+        H = np.zeros((1, 8))
+        H[0, row] = 1.0
+        K = np.linalg.solve(nav.S, H @ P).T  # S = H P H^T + R
+        assert nav.S.shape == (1, 1) and nav.S[0, 0] > P[row, row]
+        assert nav.K == pytest.approx(K, rel=1e-12, abs=1e-15)
+        assert nav.K[:, 0] == pytest.approx(P[:, row] / nav.S[0, 0], rel=1e-12, abs=1e-15)
+        I_KH = np.eye(8) - K @ H
+        assert nav.P == pytest.approx(I_KH @ P @ I_KH.T + K @ (nav.S - H @ P @ H.T) @ K.T,
+                                      rel=1e-9, abs=1e-15)
+        assert nav.x[row] != x[row]
+
+
 # --- staying bounded without the DVL ----------------------------------------------------------
 def blind_run(seconds: float = 120.0, seed: int = 4) -> tuple[Navigator, list[float]]:
     """The vehicle sways off at full thrust from rest while the DVL has no lock (as on the

@@ -87,6 +87,21 @@ def test_the_worker_writes_the_images_the_main_process_would(tmp_path: Path) -> 
     here.close()
 
 
+@pytest.mark.skipif(not hasattr(os, "getpriority"), reason="no process priorities here")
+def test_the_worker_yields_the_cores_to_the_simulation(tmp_path: Path) -> None:
+    """The worker runs NICE steps below the process that started it: the simulation's one
+    thread keeps its core and the worker takes what the simulation leaves (then catches up)."""
+    from vehicle.sensors.image_worker import NICE
+
+    there = _record(tmp_path / "there.images", background=True)
+    process = there.sink.process  # type: ignore[union-attr]
+    assert process.pid is not None and process.is_alive()
+    ours = os.getpriority(os.PRIO_PROCESS, 0)
+    assert NICE > 0
+    assert os.getpriority(os.PRIO_PROCESS, process.pid) == min(19, ours + NICE)
+    there.close()
+
+
 def test_the_wall_texture_the_worker_made_is_handed_to_the_main_process(tmp_path: Path) -> None:
     """The mosaic measures against the texture the worker made (not made a second time): the
     copy in shared memory is the texture of the run's spec, pixel for pixel, and is gone with
