@@ -103,6 +103,15 @@ def write(tmp_path: Path, text: str, name: str = "m.mcl") -> Path:
 
 # Generic blocks for testing templates, shipped with the package (mcl/tasks/generic.tasks).
 GENERIC_TASKS = (REPO / "mcl" / "tasks" / "generic.tasks").read_text("utf-8")
+# A task library whose task Fast enables GoTo with a parameter (speed) no vehicle takes: the
+# run is refused before the mission starts, or the mission fails when it is enabled.
+FAST_TASKS = ("behaviour GoTo drives x, y, z, yaw events reached, failed;\n"
+              "task Fast(target: point) {\n"
+              "    start:   enable GoTo(x = target.x, speed = 3);\n"
+              "    ok:      GoTo.reached;\n"
+              "    timeout: 1 min -> fail;\n"
+              "    stop:    disable GoTo;\n"
+              "}\n")
 
 
 # -- subprocesses on loopback ---------------------------------------------------------------------

@@ -32,7 +32,7 @@ from aal.messages import ActionMessage
 from vehicle_adapters.inprocess import InProcess
 from vehicle.scripted import ScriptedVehicle, parse_script
 
-from tests.support import BIN, MISSIONS, REPO, end, free_endpoint, free_udp_port, stop, write
+from tests.support import BIN, FAST_TASKS, MISSIONS, REPO, end, free_endpoint, free_udp_port, stop, write
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
 EVERY = str(MISSIONS / "every_construct.mcl")
@@ -496,13 +496,7 @@ def test_link_lost_over_zenoh_ends_with_an_end_record_saying_so(tmp_path: Path) 
 
 
 def test_a_parameter_the_vehicle_does_not_take_is_refused(tmp_path: Path) -> None:
-    library = write(tmp_path, "behaviour GoTo drives x, y, z, yaw events reached, failed;\n"
-                              "task Fast(target: point) {\n"
-                              "    start:   enable GoTo(x = target.x, speed = 3);\n"
-                              "    ok:      GoTo.reached;\n"
-                              "    timeout: 1 min -> fail;\n"
-                              "    stop:    disable GoTo;\n"
-                              "}\n", "fast.tasks")
+    library = write(tmp_path, FAST_TASKS, "fast.tasks")
     mission = write(tmp_path, "MISSION {\n    Fast((0, 0, 1, 0 deg))\n}\n")
     with mcl_run(tmp_path, str(mission), "--tasks", str(library)) as (proc, log):
         code = finish(proc, log)

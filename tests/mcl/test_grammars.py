@@ -109,15 +109,21 @@ def test_without_a_cache_missions_are_parsed_by_lark_itself(
     assert standalone.unexpected_eof is lark.UnexpectedEOF
 
 
-def test_a_loaded_standalone_parser_imports_neither_lark_nor_logging(folder: Path) -> None:
-    grammars.standalone("mcl.lark", **OPTIONS)  # generated into the cache
+def imported_by_a_parse(folder: Path, names: tuple[str, ...]) -> str:
+    """Which of the modules (or packages) ``names`` a fresh Python has imported once it has
+    parsed a mission with the standalone parser in the cache ``folder``, as printed."""
     code = ("import sys; from mcl.parser import parse; from diagnostics import Source; "
             "parse(Source('m.mcl', 'MISSION { GoTo((0, 0, 1, 0)) }')); "
-            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('lark', 'logging')))")
+            f"print(sorted(m for m in sys.modules if m.split('.')[0] in {names!r}))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           env=subprocess_env(MCL_CACHE_DIR=str(folder)), cwd=REPO, timeout=60)
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == "[]"
+    return proc.stdout.strip()
+
+
+def test_a_loaded_standalone_parser_imports_neither_lark_nor_logging(folder: Path) -> None:
+    grammars.standalone("mcl.lark", **OPTIONS)  # generated into the cache
+    assert imported_by_a_parse(folder, ("lark", "logging")) == "[]"
 
 
 def test_lark_s_version_is_read_without_importing_lark(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -139,10 +145,4 @@ def test_another_generator_is_another_standalone_entry(
 
 def test_a_loaded_standalone_parser_imports_neither_zlib_nor_base64(folder: Path) -> None:
     grammars.standalone("mcl.lark", **OPTIONS)  # its tables are literals: nothing to decode
-    code = ("import sys; from mcl.parser import parse; from diagnostics import Source; "
-            "parse(Source('m.mcl', 'MISSION { GoTo((0, 0, 1, 0)) }')); "
-            "print(sorted(m for m in sys.modules if m in ('zlib', 'base64', 'binascii')))")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          env=subprocess_env(MCL_CACHE_DIR=str(folder)), cwd=REPO, timeout=60)
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == "[]"
+    assert imported_by_a_parse(folder, ("zlib", "base64", "binascii")) == "[]"

@@ -35,7 +35,7 @@ from mission import run_mission
 from mission.vehicle import Vehicle
 from tests.app.view.runs import DAM, LEAK
 from tests.app.view.test_live import Feed, base
-from tests.support import BIN, REPO, budget, end, free_tcp_port, free_udp_port, \
+from tests.support import BIN, FAST_TASKS, REPO, budget, end, free_tcp_port, free_udp_port, \
     subprocess_env, write
 from tests.websocket_client import WebSocket
 from vehicle.scripted import ScriptedVehicle, load_script
@@ -316,13 +316,7 @@ def test_a_stop_ends_the_run_and_its_view_with_the_runs_exit_status(
 
 def test_a_mission_the_vehicle_cannot_run_ends_the_view_too(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    library = write(tmp_path, "behaviour GoTo drives x, y, z, yaw events reached, failed;\n"
-                              "task Fast(target: point) {\n"
-                              "    start:   enable GoTo(x = target.x, speed = 3);\n"
-                              "    ok:      GoTo.reached;\n"
-                              "    timeout: 1 min -> fail;\n"
-                              "    stop:    disable GoTo;\n"
-                              "}\n", "fast.tasks")
+    library = write(tmp_path, FAST_TASKS, "fast.tasks")
     mission = write(tmp_path, "MISSION {\n    Fast((0, 0, 1, 0 deg))\n}\n")
     port = free_tcp_port()
     code = mcl_run([str(mission), "--tasks", str(library), "--view", f"127.0.0.1:{port}",

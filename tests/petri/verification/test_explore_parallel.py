@@ -10,12 +10,10 @@ import pytest
 
 from petri.net import Net
 from petri.verification import reachability as rg
+from tests.petri.verification.test_explore_packed import assert_same
 from tests.petri.verification.test_reachability import random_net
 
 explore_numba = pytest.importorskip("petri.verification.explore_numba")
-
-KEYS = ("markings", "src", "dst", "transition", "parent", "parent_transition", "degree",
-        "fired")
 
 
 def rings(components: int, tokens: int) -> Net:
@@ -35,16 +33,6 @@ def explored(monkeypatch: pytest.MonkeyPatch, net: Net, parallel: bool, arcs: bo
     with monkeypatch.context() as m:
         m.setattr(explore_numba, "PARALLEL", parallel)
         return rg.explore(net, engine="numba", arcs=arcs, **limits)
-
-
-def assert_same(a: rg.StateSpace, b: rg.StateSpace, name: str) -> None:
-    assert (a.complete, a.stop_reason, a.unbounded_place, a.expanded) == \
-        (b.complete, b.stop_reason, b.unbounded_place, b.expanded), name
-    for key in KEYS:
-        x, y = getattr(a, key), getattr(b, key)
-        assert (x is None) == (y is None), (name, key)
-        if x is not None:
-            assert np.array_equal(x, y), (name, key)
 
 
 @pytest.mark.parametrize("arcs", [True, False])
