@@ -16,7 +16,9 @@ A log whose header cannot be written is :class:`LogUnwritable`: the mission neve
 
 from __future__ import annotations
 
+import math
 import os
+import time
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +27,9 @@ from petri.execution.player import Record
 from petri.execution.runlog import END, RunLog
 
 from mission.poses import PoseLog
+
+
+LOOK_EVERY = 0.02  # s of wall time: how often stop looks whether the log file is still there
 
 
 class LogUnwritable(MclError):
@@ -59,6 +64,7 @@ class LogWriter:
         self.file = identity(log.path)  # what a record is written to; a regular file only
         self.failure = ""  # why the log could not be written (the first failure)
         self.unwritten: dict[str, Any] | None = None  # the end record the log did not take
+        self.looked = -math.inf  # when stop last looked at the file (time.monotonic)
 
     def __call__(self, record: Record) -> None:
         self.poses_until(record.t)
@@ -88,8 +94,13 @@ class LogWriter:
 
     def stop(self) -> str | None:
         """Why the run must stop now (its log cannot be written, or is gone), or None; asked
-        every round, so that a log removed while nothing happens is noticed too."""
-        self.still_there()
+        every round, so that a log removed while nothing happens is noticed too: within
+        :data:`LOOK_EVERY` s of wall time (a look at the file every round was 2 % of the dam
+        mission's simulated run: 24,000 rounds)."""
+        now = time.monotonic()
+        if now - self.looked >= LOOK_EVERY:
+            self.looked = now
+            self.still_there()
         return f"{self.failure}: the run was stopped" if self.failure else None
 
     def progress(self, t: float, report: dict[str, Any]) -> None:

@@ -240,9 +240,8 @@ class IctineuStack:
                                 "pressure": reading.pressure}
 
     def _sonar(self, beam: SonarBeam) -> None:
-        pose = self._pose()
-        if self.tracker is None:
-            line = self.detector.add_beam(beam, pose)
+        if self.tracker is None:  # the pose only for the detector: the tracker needs none
+            line = self.detector.add_beam(beam, self._pose())
             if line is not None:
                 sigma_psi = math.sqrt(float(self.navigator.P[3, 3]))
                 self.tracker = WallTracker.from_detection(line, sigma_psi=sigma_psi)

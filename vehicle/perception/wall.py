@@ -247,7 +247,7 @@ class WallTracker:
                 Q: ArrayLike | None = None) -> None:
         """Move the vehicle for dt seconds at body velocities u (surge, m/s), v (sway, m/s),
         r (yaw rate, rad/s) from the navigator; the wall stays put in the world (§5.3)."""
-        rho, v_theta, w_theta = self.x
+        rho, v_theta, w_theta = self.x.tolist()  # Python floats: numpy's scalars' arithmetic
         half = 0.5 * r * dt  # displacement in the old vehicle frame, mid-interval heading
         dx = (u * math.cos(half) - v * math.sin(half)) * dt
         dy = (u * math.sin(half) + v * math.cos(half)) * dt

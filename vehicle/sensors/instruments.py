@@ -24,6 +24,7 @@ view, 4 m visibility; vessels 20 deg C and 1.0 bar when healthy.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, field
 from typing import Literal
@@ -227,9 +228,15 @@ class Msis:
         # The same numbers every beam, worked out once: the near-field clutter, the rays
         # across the beam, the background's noise beyond the first echo and before it.
         self._near = self.near_level * np.exp(-self.r / (self.near_field / 3.0))
-        self._rays = list(zip(self.offsets.tolist(), self.weights.tolist()))
-        self._sigma = (0.3 * self.background_level / math.sqrt(2.0),
-                       1.0 * self.background_level / math.sqrt(2.0))
+        self._rays = [(offset, self.wall_level * weight) for offset, weight
+                      in zip(self.offsets.tolist(), self.weights.tolist())]
+        self._cos_limit = math.cos(self.incidence_limit)
+        self._bins = self.r.tolist()  # the bins' ranges, ascending, for bisect
+        # The background's noise is 0.3 of its level beyond the first echo (r > first echo +
+        # 3 bins) and its level before: since r ascends, one array for each first bin beyond.
+        beyond, before = (0.3 * self.background_level / math.sqrt(2.0),
+                          1.0 * self.background_level / math.sqrt(2.0))
+        self._sigmas = [np.where(np.arange(n) >= j, beyond, before) for j in range(n + 1)]
         self._shape = 1.0 / self.speckle**2  # the speckle's gamma shape
 
     def sample(self, t: float, truth: VehicleState, rng: np.random.Generator) -> SonarBeam | None:
@@ -238,43 +245,47 @@ class Msis:
         bearing = wrap_angle(self.beam_count * self.step)
         self.beam_count += 1
         first_echo = math.inf
-        origin = (truth.x, truth.y, truth.z)
+        x, y, heading = truth.x, truth.y, truth.psi + bearing
+        origin = (x, y, truth.z)
+        ray_to_wall, wall_normal = self.env.ray_to_wall, self.env.wall_normal
         hits, amplitudes = [], []
-        for offset, weight in self._rays:
-            phi = truth.psi + bearing + offset
+        for offset, level in self._rays:  # level: the wall's, times the ray's weight
+            phi = heading + offset
             c, s = math.cos(phi), math.sin(phi)
-            hit = self.env.ray_to_wall(origin, (c, s, 0.0))
+            hit = ray_to_wall(origin, (c, s, 0.0))
             if hit is None or hit > self.max_range:
                 continue
-            nx, ny = self.env.wall_normal(truth.y + hit * s)
+            nx, ny = wall_normal(y + hit * s)
             cos_incidence = c * nx + s * ny
-            if cos_incidence < math.cos(self.incidence_limit):
+            if cos_incidence < self._cos_limit:
                 continue
             hits.append(hit)
-            amplitudes.append(self.wall_level * weight * cos_incidence)
-            first_echo = min(first_echo, hit)
+            amplitudes.append(level * cos_incidence)
+            if hit < first_echo:
+                first_echo = hit
         # The numbers and their order are those of the plain expressions (each ray's echo added
         # to the near field in turn, then the speckle, the noise, the 8-bit steps), worked out
-        # in place: a beam's 200 bins cost less in numpy's calls than in its arithmetic.
+        # in place: a beam's 200 bins cost less in numpy's calls than in its arithmetic. The
+        # rows (near field, then each echo) are summed down the columns, one row after another.
         r = self.r
         if hits:
-            echoes = r - np.array(hits)[:, None]
+            rows = np.empty((len(hits) + 1, r.size))
+            rows[0] = self._near
+            echoes = rows[1:]
+            np.subtract(r, np.array(hits)[:, None], out=echoes)
             echoes /= self.bin_size
             np.square(echoes, out=echoes)
             echoes *= -0.5
             np.exp(echoes, out=echoes)
             echoes *= np.array(amplitudes)[:, None]
-            profile = self._near + echoes[0]
-            for echo in echoes[1:]:
-                profile += echo
+            profile = np.add.reduce(rows, axis=0)
         else:
             profile = self._near
         k = self._shape  # gamma speckle: mean 1, std self.speckle
         speckle = rng.gamma(k, 1.0 / k, r.size)
         speckle *= profile
-        sigma = np.where(r > first_echo + 3.0 * self.bin_size, *self._sigma)
         noise = rng.normal(0.0, 1.0, (2, r.size))
-        noise *= sigma
+        noise *= self._sigmas[bisect.bisect_right(self._bins, first_echo + 3.0 * self.bin_size)]
         noise[0] += speckle
         bins = np.hypot(noise[0], noise[1])
         np.minimum(bins, 1.0, out=bins)  # hypot is never below 0: the clip to 0..1
@@ -414,6 +425,8 @@ class Sensors:
         """Every reading due at t (several from one sensor if the caller stepped past them)."""
         out: list[Reading] = []
         for sensor, g in zip(self.all, self._rngs):
+            if t + 1e-9 < sensor.schedule.next:  # not due: its sample would say None
+                continue
             for _ in range(1000):
                 reading = sensor.sample(t, truth, g)
                 if reading is None:

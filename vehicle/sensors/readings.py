@@ -89,6 +89,7 @@ Reading = (DvlReading | HeadingReading | DepthReading | UsblFix | SonarBeam | Ca
 
 class Sensor(Protocol):
     rate: float
+    schedule: Schedule  # when its next reading is due: sample says None before then
 
     def sample(self, t: float, truth: VehicleState,
                rng: np.random.Generator) -> Reading | None: ...
@@ -101,13 +102,15 @@ class Schedule:
         if rate <= 0.0:
             raise ValueError(f"rate must be > 0 Hz, got {rate}")
         self.rate, self.t0, self.count = rate, t0, 0
+        self.next = t0  # the next due time, t0 + count / rate
 
     def next_time(self) -> float:
-        return self.t0 + self.count / self.rate
+        return self.next
 
     def due(self, t: float) -> bool:
         """True (and move on to the next due time) if a reading is due at t."""
-        if t + 1e-9 >= self.next_time():
+        if t + 1e-9 >= self.next:
             self.count += 1
+            self.next = self.t0 + self.count / self.rate
             return True
         return False

@@ -236,6 +236,7 @@ class Ictineu:
         self._M = self.params.inertia()
         self._B = self.params.allocation_matrix()  # params are frozen: made once
         self._disturbance_std = np.asarray(self.params.disturbance_std, dtype=float)
+        self._disturbed = bool(self._disturbance_std.any())  # a white force each sub-step
         self._pinv: FloatArray = np.asarray(np.linalg.pinv(self._B),
                                             dtype=np.float64)
         self.thrust: FloatArray = np.zeros(6)  # N, last allocation
@@ -282,7 +283,7 @@ class Ictineu:
         ta = (float(applied[0]), float(applied[1]), float(applied[2]), float(applied[3]))
         sd = self._disturbance_std
         for _ in range(n):
-            d = (self.rng.normal(0.0, 1.0, 4) * sd).tolist() if sd.any() else [0.0] * 4
+            d = (self.rng.normal(0.0, 1.0, 4) * sd).tolist() if self._disturbed else [0.0] * 4
             forces = (ta[0] + d[0], ta[1] + d[1], ta[2] + d[2], ta[3] + d[3])
             s0 = self._s
             k1 = self._derivative(s0, forces, self.t)
