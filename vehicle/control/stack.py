@@ -175,15 +175,14 @@ class IctineuStack:
             self._perceive(reading)
         self._predict_to(self.t)
         p = self.perception()
-        p = self.seabed.perceive(self.t, truth, p, [b.tracker for b in self.behaviours.values()
-                                                    if b.active and b.tracker])
+        active = [b for b in self.behaviours.values() if b.active]  # on for the whole tick
+        p = self.seabed.perceive(self.t, truth, p, [b.tracker for b in active if b.tracker])
         responses = {}
-        for b in self.behaviours.values():
-            if b.active:
-                responses[b.name] = b.update(p)
-                for name, data in b.take_events():
-                    self._events.append(EventMessage(self._seq, self.t, b.name, name, data))
-                    self._seq += 1
+        for b in active:
+            responses[b.name] = b.update(p)
+            for name, data in b.take_events():
+                self._events.append(EventMessage(self._seq, self.t, b.name, name, data))
+                self._seq += 1
         setpoints = self.coordinator.merge(responses)
         owners = dict(self.coordinator.last_owner)
         for dof in self._owners.keys() - owners.keys():
@@ -193,10 +192,10 @@ class IctineuStack:
         self._owners = owners
         velocity = {"x": p.u, "y": p.v, "z": p.w, "yaw": p.r}
         tau = self.controller.update(setpoints, velocity, DT)
-        self.robot.step(DT, (tau["x"], tau["y"], tau["z"], tau["yaw"]))
+        after = self.robot.step(DT, (tau["x"], tau["y"], tau["z"], tau["yaw"]))  # its state
         self.t += DT
-        self.survey.record(self.t, self.robot.state, self.navigator, self.tracker,
-                           surveying=self.surveying() is not None)
+        self.survey.record(self.t, after, self.navigator, self.tracker,
+                           surveying=any(b.surveys for b in active))
 
     def surveying(self) -> bh.Behaviour | None:
         """The enabled behaviour that surveys the wall (``Behaviour.surveys``), if any."""
