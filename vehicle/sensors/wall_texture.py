@@ -50,15 +50,53 @@ class TextureSpec:
         return col, row
 
 
+BAND = 32  # rows of the texture worked on at once where each pixel is on its own (in cache)
+
+
 def _noise(rng: np.random.Generator, shape: tuple[int, int], cell: float) -> FloatArray:
     """Smooth value noise of about `cell` pixels' feature size, zero mean, unit-ish spread."""
+    return np.asarray(_noise32(rng, shape, cell), dtype=np.float64)
+
+
+def _noise32(rng: np.random.Generator, shape: tuple[int, int], cell: float) -> Any:
+    """:func:`_noise` as the float32 numbers it is made of (:func:`_noise` is them as float64)."""
     import cv2
 
     h, w = shape
     gh, gw = max(2, int(h / cell) + 2), max(2, int(w / cell) + 2)
     grid = rng.standard_normal((gh, gw)).astype(np.float32)
     big = cv2.resize(grid, (int(gw * cell), int(gh * cell)), interpolation=cv2.INTER_CUBIC)
-    return np.asarray(big[:h, :w], dtype=np.float64)
+    return big[:h, :w]
+
+
+def _concrete(grey: Any, grain: Any, aggregate: Any, voids: Any) -> None:
+    """The concrete's grey level, in ``grey`` (float32): its fine grain (``grey``, blurred
+    noise), aggregate at two sizes (``grain``, ``aggregate``, smooth noise), air voids where
+    ``voids`` exceeds 2.1. Worked out a band of rows at a time (in cache) with the numbers
+    of whole-image numpy: each noise added as float64, as numpy adds a float64 array."""
+    for r0 in range(0, grey.shape[0], BAND):
+        band = grey[r0:r0 + BAND]
+        band *= 14.0
+        band += 9.0 * grain[r0:r0 + BAND].astype(np.float64)
+        band += 7.0 * aggregate[r0:r0 + BAND].astype(np.float64)
+        band += 140.0
+        band[voids[r0:r0 + BAND].astype(np.float64) > 2.1] -= 45.0
+
+
+def _colour(low: Any, grey: Any) -> Image:
+    """The 8-bit colour image of the slowly varying colour ``low`` (h, w, 3) over the grey
+    level ``grey`` (h, w), both float32: their sum clipped to 0..255, a band at a time (the
+    grey level for each colour by cv2.merge: numpy adds an (h, w, 1) array to an (h, w, 3)
+    one a value at a time)."""
+    import cv2
+
+    out = np.empty(low.shape, np.uint8)
+    for r0 in range(0, low.shape[0], BAND):
+        band, level = low[r0:r0 + BAND], grey[r0:r0 + BAND]
+        band += cv2.merge((level, level, level))
+        np.clip(band, 0.0, 255.0, out=band)
+        out[r0:r0 + BAND] = band
+    return out
 
 
 def make_texture(spec: TextureSpec) -> Image:
@@ -76,11 +114,8 @@ def make_texture(spec: TextureSpec) -> Image:
     # concrete: grain at a few mm, aggregate at a few cm, air voids
     grey: Any = rng.standard_normal((h, w), dtype=np.float32)
     grey = cv2.GaussianBlur(grey, (0, 0), 0.8)
-    grey *= 14.0
-    grey += 9.0 * _noise(rng, (h, w), 0.02 * px_per_m)
-    grey += 7.0 * _noise(rng, (h, w), 0.08 * px_per_m)
-    grey += 140.0
-    grey[_noise(rng, (h, w), 0.012 * px_per_m) > 2.1] -= 45.0
+    _concrete(grey, _noise32(rng, (h, w), 0.02 * px_per_m),
+              _noise32(rng, (h, w), 0.08 * px_per_m), _noise32(rng, (h, w), 0.012 * px_per_m))
     # formwork joints: lift joints every 1.5 m in depth, panel joints every 3 m along the wall
     for z in np.arange(math.ceil(spec.z_range[0] / 1.5) * 1.5, spec.z_range[1], 1.5):
         r = int((z - spec.z_range[0]) * px_per_m)
@@ -117,11 +152,7 @@ def make_texture(spec: TextureSpec) -> Image:
     algae = np.clip(algae + 0.25 * depth - 1.2, 0.0, 1.2)
     low: Any = np.stack([patch - 22.0 * stain - 40.0 * algae, patch - 14.0 * stain - 5.0 * algae,
                     patch - 2.0 * stain - 45.0 * algae], axis=-1).astype(np.float32)
-    low = cv2.resize(low, (w, h), interpolation=cv2.INTER_LINEAR)
-    low += grey[:, :, None]
-    np.minimum(low, 255.0, out=low)
-    np.maximum(low, 0.0, out=low)
-    return np.asarray(low, dtype=np.uint8)
+    return _colour(cv2.resize(low, (w, h), interpolation=cv2.INTER_LINEAR), grey)
 
 
 class WallTexture:
