@@ -69,10 +69,11 @@ class ImageWriter:
         self.failure = ""  # why images stopped being kept: the first that could not be written
 
     def camera(self) -> WallCamera:
-        """The wall camera, its texture made on first use (about a second)."""
+        """The wall camera, its texture made on first use (a quarter of a second), and the
+        copy its images sample (before the threads that light them sample it at once)."""
         if self._camera is None:
             self._camera = WallCamera(WallTexture(self.spec), self.wall_curvature)
-            _ = self._camera.texture.image
+            _ = self._camera.texture.padded
         return self._camera
 
     def _start(self) -> None:
