@@ -7,7 +7,7 @@ generator (seeded by the run's seed), so that a run's images depend on its seed 
 whichever process renders them (:mod:`vehicle.sensors.image_worker`), and however many
 threads. With ``threads`` (the camera's worker), the noise is drawn in the caller's thread and
 the rest runs in a pool of that many threads — the light that reaches the sensor
-(:meth:`~vehicle.sensors.camera.WallCamera.lit`, two thirds of an image's rendering), the
+(:meth:`~vehicle.sensors.camera.WallCamera.lit`, a third of an image's rendering), the
 noise added, the PNG encoded — while one more thread writes the files and the lines of
 ``index.csv`` in the images' order.
 The PNGs are stored, not compressed (deflate's level 0, no row filter): 0.4 ms an image

@@ -188,8 +188,8 @@ class WallTexture:
         import cv2
 
         col, row = self.spec.to_pixel(y, z)  # y or z may be a row: broadcast
-        # one map of (column, row) pairs, which remap reads faster than two maps (0.42 ms
-        # an image against 0.58; the same pixels)
+        # one map of (column, row) pairs, which remap reads a little faster than two maps
+        # (0.17 ms a camera image against 0.19; the same pixels)
         where: Any = np.empty(np.broadcast_shapes(col.shape, row.shape) + (2,), np.float32)
         where[..., 0] = col
         where[..., 1] = row
