@@ -69,7 +69,7 @@ def _noise32(rng: np.random.Generator, shape: tuple[int, int], cell: float) -> A
     return big[:h, :w]
 
 
-def _concrete(grey: Any, grain: Any, aggregate: Any, voids: Any) -> None:
+def concrete(grey: Any, grain: Any, aggregate: Any, voids: Any) -> None:
     """The concrete's grey level, in ``grey`` (float32): its fine grain (``grey``, blurred
     noise), aggregate at two sizes (``grain``, ``aggregate``, smooth noise), air voids where
     ``voids`` exceeds 2.1. Worked out a band of rows at a time (in cache) with the numbers
@@ -83,7 +83,7 @@ def _concrete(grey: Any, grain: Any, aggregate: Any, voids: Any) -> None:
         band[voids[r0:r0 + BAND].astype(np.float64) > 2.1] -= 45.0
 
 
-def _colour(low: Any, grey: Any) -> Image:
+def colour(low: Any, grey: Any) -> Image:
     """The 8-bit colour image of the slowly varying colour ``low`` (h, w, 3) over the grey
     level ``grey`` (h, w), both float32: their sum clipped to 0..255, a band at a time (the
     grey level for each colour by cv2.merge: numpy adds an (h, w, 1) array to an (h, w, 3)
@@ -114,7 +114,7 @@ def make_texture(spec: TextureSpec) -> Image:
     # concrete: grain at a few mm, aggregate at a few cm, air voids
     grey: Any = rng.standard_normal((h, w), dtype=np.float32)
     grey = cv2.GaussianBlur(grey, (0, 0), 0.8)
-    _concrete(grey, _noise32(rng, (h, w), 0.02 * px_per_m),
+    concrete(grey, _noise32(rng, (h, w), 0.02 * px_per_m),
               _noise32(rng, (h, w), 0.08 * px_per_m), _noise32(rng, (h, w), 0.012 * px_per_m))
     # formwork joints: lift joints every 1.5 m in depth, panel joints every 3 m along the wall
     for z in np.arange(math.ceil(spec.z_range[0] / 1.5) * 1.5, spec.z_range[1], 1.5):
@@ -152,7 +152,7 @@ def make_texture(spec: TextureSpec) -> Image:
     algae = np.clip(algae + 0.25 * depth - 1.2, 0.0, 1.2)
     low: Any = np.stack([patch - 22.0 * stain - 40.0 * algae, patch - 14.0 * stain - 5.0 * algae,
                     patch - 2.0 * stain - 45.0 * algae], axis=-1).astype(np.float32)
-    return _colour(cv2.resize(low, (w, h), interpolation=cv2.INTER_LINEAR), grey)
+    return colour(cv2.resize(low, (w, h), interpolation=cv2.INTER_LINEAR), grey)
 
 
 class WallTexture:
