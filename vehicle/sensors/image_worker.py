@@ -23,9 +23,9 @@ to the whole process group, are the main process's to handle: the worker ignores
 
 The worker is a spawned interpreter, not a fork: a child forked after the parent has used
 OpenCV's thread pool deadlocks at its first OpenCV call (seen in the tests). Spawning costs the
-worker half a second of CPU (it imports the command's main module again, as multiprocessing
-does), on the other core; a script that attaches the camera needs the usual
-``if __name__ == "__main__":`` guard.
+worker a quarter of a second of CPU, on the other core: the interpreter, numpy and OpenCV
+(the command's main module, which multiprocessing imports again, is 0.01 s of it); a script
+that attaches the camera needs the usual ``if __name__ == "__main__":`` guard.
 """
 
 from __future__ import annotations

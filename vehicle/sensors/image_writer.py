@@ -7,7 +7,7 @@ generator (seeded by the run's seed), so that a run's images depend on its seed 
 whichever process renders them (:mod:`vehicle.sensors.image_worker`), and however many
 threads. With ``threads`` (the camera's worker), the noise is drawn in the caller's thread and
 the rest runs in a pool of that many threads — the light that reaches the sensor
-(:meth:`~vehicle.sensors.camera.WallCamera.lit`, two thirds of an image's rendering), the
+(:meth:`~vehicle.sensors.camera.WallCamera.lit`, a third of an image's rendering), the
 noise added, the PNG encoded — while one more thread writes the files and the lines of
 ``index.csv`` in the images' order.
 The PNGs are stored, not compressed (deflate's level 0, no row filter): 0.4 ms an image
@@ -63,13 +63,17 @@ class ImageWriter:
         self._ahead: deque[Future[bytes]] = deque()  # images being developed, oldest first
         self._limit = 2 * threads + 2  # images in flight at most (each a few MB)
         self._pending: list[Future[None]] = []
+        # the noise arrays of developed images, drawn into again: a new one each image is
+        # memory the allocator hands back to the system and takes again (its pages zeroed)
+        self._spare: deque[FloatImage] = deque()
         self.failure = ""  # why images stopped being kept: the first that could not be written
 
     def camera(self) -> WallCamera:
-        """The wall camera, its texture made on first use (about a second)."""
+        """The wall camera, its texture made on first use (a quarter of a second), and the
+        copy its images sample (before the threads that light them sample it at once)."""
         if self._camera is None:
             self._camera = WallCamera(WallTexture(self.spec), self.wall_curvature)
-            _ = self._camera.texture.image
+            _ = self._camera.texture.padded
         return self._camera
 
     def _start(self) -> None:
@@ -114,13 +118,15 @@ class ImageWriter:
                                "x": pose[0], "y": pose[1], "z": pose[2], "psi": pose[3]}
         row.update(nav)
         line = [_cell(row.get(k)) for k in INDEX_FIELDS]
-        noise = cam.noise(self._rng)  # in the order taken: the generator's sequence
         if self._develop is None or self._files is None:
+            noise = cam.noise(self._rng)  # in the order taken: the generator's sequence
             img = cam.expose(cam.lit(pose), noise)
             if self.on_image is not None:
                 self.on_image(index, img)
             self._store(index, name, _encode(img), line)
             return img
+        spare = self._spare.popleft() if self._spare else None
+        noise = cam.noise(self._rng, spare)  # in the order taken: the generator's sequence
         developed = self._develop.submit(self._developed, index, pose, noise)
         self._pending.append(self._files.submit(self._keep, index, name, developed, line))
         self._ahead.append(developed)
@@ -132,7 +138,10 @@ class ImageWriter:
         """(A pool thread) The image lit, exposed with its noise, given to ``on_image``, and
         its PNG."""
         cam = self.camera()
-        img = cam.expose(cam.lit(pose), noise)
+        try:
+            img = cam.expose(cam.lit(pose), noise)
+        finally:
+            self._spare.append(noise)  # used up: the next image's noise goes there
         if self.on_image is not None:
             self.on_image(index, img)
         return _encode(img)

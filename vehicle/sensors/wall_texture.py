@@ -41,20 +41,62 @@ class TextureSpec:
     def to_pixel(self, y: npt.ArrayLike, z: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Wall (y, z) in m -> texture (column, row), pixel centres at integers."""
         s = self.mm_per_px / 1000.0
-        col = (np.asarray(y, dtype=float) - self.y_range[0]) / s - 0.5
-        row = (np.asarray(z, dtype=float) - self.z_range[0]) / s - 0.5
+        col = np.asarray(y, dtype=float) - self.y_range[0]  # a new array, then in place
+        col /= s
+        col -= 0.5
+        row = np.asarray(z, dtype=float) - self.z_range[0]
+        row /= s
+        row -= 0.5
         return col, row
+
+
+BAND = 32  # rows of the texture worked on at once where each pixel is on its own (in cache)
 
 
 def _noise(rng: np.random.Generator, shape: tuple[int, int], cell: float) -> FloatArray:
     """Smooth value noise of about `cell` pixels' feature size, zero mean, unit-ish spread."""
+    return np.asarray(_noise32(rng, shape, cell), dtype=np.float64)
+
+
+def _noise32(rng: np.random.Generator, shape: tuple[int, int], cell: float) -> Any:
+    """:func:`_noise` as the float32 numbers it is made of (:func:`_noise` is them as float64)."""
     import cv2
 
     h, w = shape
     gh, gw = max(2, int(h / cell) + 2), max(2, int(w / cell) + 2)
     grid = rng.standard_normal((gh, gw)).astype(np.float32)
     big = cv2.resize(grid, (int(gw * cell), int(gh * cell)), interpolation=cv2.INTER_CUBIC)
-    return np.asarray(big[:h, :w], dtype=np.float64)
+    return big[:h, :w]
+
+
+def concrete(grey: Any, grain: Any, aggregate: Any, voids: Any) -> None:
+    """The concrete's grey level, in ``grey`` (float32): its fine grain (``grey``, blurred
+    noise), aggregate at two sizes (``grain``, ``aggregate``, smooth noise), air voids where
+    ``voids`` exceeds 2.1. Worked out a band of rows at a time (in cache) with the numbers
+    of whole-image numpy: each noise added as float64, as numpy adds a float64 array."""
+    for r0 in range(0, grey.shape[0], BAND):
+        band = grey[r0:r0 + BAND]
+        band *= 14.0
+        band += 9.0 * grain[r0:r0 + BAND].astype(np.float64)
+        band += 7.0 * aggregate[r0:r0 + BAND].astype(np.float64)
+        band += 140.0
+        band[voids[r0:r0 + BAND].astype(np.float64) > 2.1] -= 45.0
+
+
+def colour(low: Any, grey: Any) -> Image:
+    """The 8-bit colour image of the slowly varying colour ``low`` (h, w, 3) over the grey
+    level ``grey`` (h, w), both float32: their sum clipped to 0..255, a band at a time (the
+    grey level for each colour by cv2.merge: numpy adds an (h, w, 1) array to an (h, w, 3)
+    one a value at a time)."""
+    import cv2
+
+    out = np.empty(low.shape, np.uint8)
+    for r0 in range(0, low.shape[0], BAND):
+        band, level = low[r0:r0 + BAND], grey[r0:r0 + BAND]
+        band += cv2.merge((level, level, level))
+        np.clip(band, 0.0, 255.0, out=band)
+        out[r0:r0 + BAND] = band
+    return out
 
 
 def make_texture(spec: TextureSpec) -> Image:
@@ -72,11 +114,8 @@ def make_texture(spec: TextureSpec) -> Image:
     # concrete: grain at a few mm, aggregate at a few cm, air voids
     grey: Any = rng.standard_normal((h, w), dtype=np.float32)
     grey = cv2.GaussianBlur(grey, (0, 0), 0.8)
-    grey *= 14.0
-    grey += 9.0 * _noise(rng, (h, w), 0.02 * px_per_m)
-    grey += 7.0 * _noise(rng, (h, w), 0.08 * px_per_m)
-    grey += 140.0
-    grey[_noise(rng, (h, w), 0.012 * px_per_m) > 2.1] -= 45.0
+    concrete(grey, _noise32(rng, (h, w), 0.02 * px_per_m),
+              _noise32(rng, (h, w), 0.08 * px_per_m), _noise32(rng, (h, w), 0.012 * px_per_m))
     # formwork joints: lift joints every 1.5 m in depth, panel joints every 3 m along the wall
     for z in np.arange(math.ceil(spec.z_range[0] / 1.5) * 1.5, spec.z_range[1], 1.5):
         r = int((z - spec.z_range[0]) * px_per_m)
@@ -113,21 +152,18 @@ def make_texture(spec: TextureSpec) -> Image:
     algae = np.clip(algae + 0.25 * depth - 1.2, 0.0, 1.2)
     low: Any = np.stack([patch - 22.0 * stain - 40.0 * algae, patch - 14.0 * stain - 5.0 * algae,
                     patch - 2.0 * stain - 45.0 * algae], axis=-1).astype(np.float32)
-    low = cv2.resize(low, (w, h), interpolation=cv2.INTER_LINEAR)
-    low += grey[:, :, None]
-    np.minimum(low, 255.0, out=low)
-    np.maximum(low, 0.0, out=low)
-    return np.asarray(low, dtype=np.uint8)
+    return colour(cv2.resize(low, (w, h), interpolation=cv2.INTER_LINEAR), grey)
 
 
 class WallTexture:
-    """The ground-truth wall image, made on first use (about a second)."""
+    """The ground-truth wall image, made on first use (a quarter of a second)."""
 
     def __init__(self, spec: TextureSpec | None = None, image: Image | None = None) -> None:
         """``image``: the texture of ``spec`` already made (by another process), else it is
         made on first use."""
         self.spec = spec or TextureSpec()
         self._image: Image | None = image
+        self._padded: Image | None = None
 
     @property
     def image(self) -> Image:
@@ -135,14 +171,32 @@ class WallTexture:
             self._image = make_texture(self.spec)
         return self._image
 
+    @property
+    def padded(self) -> Image:
+        """The texture with a fourth channel (opaque) after B, G, R, made on first use: what
+        :meth:`sample` reads, for OpenCV's remap reads four channels faster than three
+        (0.17 ms a camera image against 0.42; the same B, G, R)."""
+        import cv2
+
+        if self._padded is None:
+            self._padded = np.asarray(cv2.cvtColor(self.image, cv2.COLOR_BGR2BGRA),
+                                      dtype=np.uint8)
+        return self._padded
+
     def sample(self, y: FloatArray, z: FloatArray) -> Image:
         """The texture at wall points (m), bilinear, mirrored beyond its edges."""
         import cv2
 
-        col, row = np.broadcast_arrays(*self.spec.to_pixel(y, z))  # y or z may be a row
-        out = cv2.remap(self.image, col.astype(np.float32), row.astype(np.float32),
-                        cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT_101)
-        return np.asarray(out, dtype=np.uint8)
+        col, row = self.spec.to_pixel(y, z)  # y or z may be a row: broadcast
+        # one map of (column, row) pairs, which remap reads a little faster than two maps
+        # (0.17 ms a camera image against 0.19; the same pixels)
+        where: Any = np.empty(np.broadcast_shapes(col.shape, row.shape) + (2,), np.float32)
+        where[..., 0] = col
+        where[..., 1] = row
+        no_second_map: Any = None  # the pairs are the one map (cv2's stubs want two)
+        out = cv2.remap(self.padded, where, no_second_map, cv2.INTER_LINEAR,
+                        borderMode=cv2.BORDER_REFLECT_101)
+        return np.asarray(cv2.cvtColor(out, cv2.COLOR_BGRA2BGR), dtype=np.uint8)
 
     def crop(self, y0: float, z0: float, mm_per_px: float, shape: tuple[int, int]) -> Image:
         """The texture resampled on a grid: pixel (r, c) centred at (y0 + (c + 0.5) s,
