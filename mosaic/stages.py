@@ -118,7 +118,8 @@ class Matcher:
 
     def match(self, jobs: list[Job], poses: FloatArray) -> list[registration.Pair | str]:
         """Each pair registered, or why it was not (in the order of ``jobs``)."""
-        hw = [homography(p, self.k) for p in poses]
+        hw = {i: homography(poses[i], self.k) for i in sorted({i for a, b, _ in jobs
+                                                                for i in (a, b)})}
         shape = (self.k.height, self.k.width)
 
         def one(job: Job) -> registration.Pair | str:
