@@ -6,24 +6,26 @@ sigma 1.5 px minus that of sigma 8 px (``G``), and an image has texture when the
 standard deviation reaches :data:`mosaic.illumination.FLAT`. The sigma-8 smoothing is most of
 the check's cost (0.64 ms of 0.82 for a 320 x 240 image). :func:`surely_at_least` decides
 "the detail reaches ``level``" from a cheaper smoothing ``C`` (:func:`coarse`: the image
-reflected outwards at its last rows and columns as the blur reflects it, halved by
-``pyrDown``, smoothed with sigma sqrt(15.5) px, doubled by ``pyrUp``, cropped; 0.18 ms) when it
-can prove it, and else says nothing (the exact detail is then worked out, as before):
+reflected outwards at its last rows and columns as the blur reflects it, halved twice by
+``pyrDown``, smoothed with sigma sqrt(3.375) px, doubled twice by ``pyrUp``, cropped; 0.12 ms)
+when it can prove it, and else says nothing (the exact detail is then worked out, as before):
 
 * The standard deviation is a seminorm: |std(a) - std(b)| <= std(a - b).
 * ``C`` and ``G`` are linear, keep constant images constant, and act on rows and columns
   apart (one matrix per axis: C = Cc (x) Cr, G = Gc (x) Gr). So, m being the mean of g and N
-  its pixels, std(Cg - Gg) <= |(C - G)(g - m)| / sqrt(N) <= |C - G| std(g) (spectral norms),
-  and C - G = (Cc - Gc) (x) Cr + Gc (x) (Cr - Gr) gives
-  |C - G| <= |Cc - Gc| |Cr| + |Gc| |Cr - Gr|, each bounded by the square root of its largest
-  absolute column sum times its largest absolute row sum (Schur's test).
+  its pixels, std(Cg - Gg) <= |(C - G)(g - m)| / sqrt(N) <= |C - G| std(g) (spectral norms);
+  C - G = (Cc - Gc) (x) Cr + Gc (x) (Cr - Gr) gives |C - G| <= |Cc - Gc| |Cr| + |Gc| |Cr - Gr|,
+  each bounded by the square root of its largest absolute column sum times its largest
+  absolute row sum (Schur's test); and std(g) <= (max g - min g) / 2 (Popoviciu).
 * The four matrices are measured once for each image size, by putting unit impulses through
   the same OpenCV calls (:func:`axis_matrix`).
 
-So the exact detail's deviation is at least the cheap one's minus ``bound(shape) * std(g)``;
-when that still reaches the level with :data:`MARGIN` to spare (for floating-point rounding),
-the image has texture. For 320 x 240 images the bound is 2e-4 (under 0.01 grey levels for
-the dam mission's images, whose detail is 5 to 6 grey levels against a level of 2).
+So the exact detail's deviation is at least the cheap one's minus ``bound(shape)`` times
+half the grey's range; when that still reaches the level with :data:`MARGIN` to spare (for
+floating-point rounding), the image has texture. For 320 x 240 images the bound is 1.9e-3
+(under 0.25 grey levels for any image of grey levels 0 to 255; the dam mission's images have
+a detail of 5 to 6 grey levels against a level of 2). With one halving (sigma sqrt(15.5) at
+half size) the bound is 2.2e-4 but the smoothing takes 0.17 ms.
 """
 
 from __future__ import annotations
@@ -39,12 +41,13 @@ import numpy.typing as npt
 FloatImage = npt.NDArray[np.float32]
 Grey = npt.NDArray[Any]  # a grey image as OpenCV gives it
 
-PAD = 40  # px each image is reflected outwards at its end, beyond the reach of the far
-# border of the pyramid (the half-size sigma reaches 32 px, pyrDown and pyrUp 2 each)
-HALF_SIGMA = math.sqrt(15.5)  # pyrDown and pyrUp add a variance of 1 px² each: 2 + 4 * 15.5
-# = 64 = 8²
-REACH = 37  # px beyond which a pixel does not move either smoothing (the impulses' spacing
-# in axis_matrix is twice this and more)
+REACH = 50  # px beyond which a pixel does not move either smoothing: the quarter-size
+# sigma's 8 taps (32 px), the two pyrDowns' 2 and 4 px, the two pyrUps' 4 and 2, and some to
+# spare (the impulses' spacing in axis_matrix is twice this and more)
+PAD = REACH + 6  # px each image is reflected outwards at its end, beyond the reach of the
+# pyramid's own border there
+QUARTER_SIGMA = math.sqrt(3.375)  # each pyrDown and pyrUp adds a variance of 1 px² of its
+# finer image: 1 + 4 + 16 * 3.375 + 4 + 1 = 64 = 8²
 MARGIN = 0.05  # grey levels kept to spare for the rounding of float32 arithmetic (under 0.005)
 
 
@@ -61,7 +64,9 @@ def coarse(grey: FloatImage) -> FloatImage:
 
     h, w = grey.shape
     padded = cv2.copyMakeBorder(grey, 0, PAD, 0, PAD, cv2.BORDER_REFLECT_101)
-    half = cv2.GaussianBlur(cv2.pyrDown(padded), (0, 0), HALF_SIGMA)
+    half = cv2.pyrDown(padded)
+    quarter = cv2.GaussianBlur(cv2.pyrDown(half), (0, 0), QUARTER_SIGMA)
+    half = cv2.pyrUp(quarter, dstsize=(half.shape[1], half.shape[0]))
     return np.asarray(cv2.pyrUp(half, dstsize=(padded.shape[1], padded.shape[0]))[:h, :w],
                       dtype=np.float32)
 
@@ -118,6 +123,6 @@ def surely_at_least(grey: Grey, fine: Grey, level: float) -> bool:
 
     if min(grey.shape) < 2 * PAD:
         return False
-    spread = float(cv2.meanStdDev(grey)[1][0, 0])
+    low, high = cv2.minMaxLoc(grey)[:2]  # std(grey) <= (high - low) / 2
     cheap = float(cv2.meanStdDev(fine - coarse(grey))[1][0, 0])
-    return cheap >= level + 1.01 * bound(grey.shape[:2]) * spread + MARGIN
+    return cheap >= level + 1.01 * bound(grey.shape[:2]) * (high - low) / 2 + MARGIN
