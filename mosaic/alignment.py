@@ -83,16 +83,24 @@ def align(prior: FloatArray, prior_std: FloatArray, pairs: Sequence[Pair], k: In
         vals = np.concatenate([ji.ravel(), jj_.ravel(), 1.0 / std.ravel()])
         return sp.csr_matrix((vals, (rows, cols)), shape=(2 * m + 4 * n, 4 * n))
 
+    direct = RowsOfJacobian(ii, jj, std) if m and not (ii == jj).any() else None
     q = (prior if x0 is None else x0).ravel().copy()
     keep = np.ones(m, bool)
     rejected: list[tuple[int, int]] = []
     iterations = 0
     for _ in range(8):  # solve; drop the pairs that disagree most with the rest; solve again
         rows = np.flatnonzero(np.concatenate([np.repeat(keep, 2), np.ones(4 * n, bool)]))
+        kept = keep.copy()
+
         def fun(x: FloatArray, rows: npt.NDArray[np.intp] = rows) -> FloatArray:
             return residuals(x)[rows]
 
-        def jac(x: FloatArray, rows: npt.NDArray[np.intp] = rows) -> sp.csr_matrix:
+        def jac(x: FloatArray, rows: npt.NDArray[np.intp] = rows,
+                kept: npt.NDArray[np.bool_] = kept) -> sp.csr_matrix:
+            if direct is not None:
+                poses = x.reshape(n, 4)
+                return direct.matrix(wall_jacobian(poses[ii], ai, bi) / match_std,
+                                     -wall_jacobian(poses[jj], aj, bj) / match_std, kept)
             return jacobian(x)[rows]
 
         q, its = _gauss_newton(fun, jac, q, max_iterations)
@@ -112,6 +120,45 @@ def align(prior: FloatArray, prior_std: FloatArray, pairs: Sequence[Pair], k: In
     rows = np.flatnonzero(np.concatenate([np.repeat(keep, 2), np.ones(4 * n, bool)]))
     cost = 0.5 * float(np.sum(residuals(q)[rows] ** 2))
     return Alignment(q.reshape(n, 4), cost, iterations, rejected)
+
+
+class RowsOfJacobian:
+    """The alignment's Jacobian, rows of the kept correspondences and then the prior's, made
+    as a CSR matrix at once: the arrays ``csr_matrix((vals, (rows, cols)))[kept rows]`` gives
+    (each correspondence's two rows hold the four columns of one image and the four of the
+    other, the lower image first; then one entry a pose unknown), without building the COO
+    matrix, converting and indexing it on every Gauss-Newton step. Images ``ii`` and ``jj``
+    of each correspondence differ."""
+
+    def __init__(self, ii: npt.NDArray[np.intp], jj: npt.NDArray[np.intp],
+                 std: FloatArray) -> None:
+        four = np.arange(4)
+        lo, hi = np.minimum(ii, jj), np.maximum(ii, jj)
+        cols = np.concatenate([4 * lo[:, None] + four, 4 * hi[:, None] + four], axis=1)
+        self.cols = np.repeat(cols[:, None, :], 2, axis=1)  # (m, 2, 8)
+        self.swap = ii > jj  # the j block comes first in these rows
+        self.prior = 1.0 / std.ravel()
+        self.unknowns = self.prior.size
+        self.cached: tuple[bytes, npt.NDArray[np.intp], npt.NDArray[np.intp]] | None = None
+
+    def matrix(self, di: FloatArray, dj: FloatArray,
+               kept: npt.NDArray[np.bool_]) -> sp.csr_matrix:
+        """The Jacobian's rows for derivatives ``di``, ``dj`` (m, 2, 4) of the correspondences
+        against their two images' poses, of the correspondences ``kept``."""
+        both = np.concatenate([di, dj], axis=2)
+        if self.swap.any():
+            both[self.swap] = both[self.swap][:, :, [4, 5, 6, 7, 0, 1, 2, 3]]
+        key = kept.tobytes()
+        if self.cached is None or self.cached[0] != key:
+            k = int(kept.sum())
+            indices = np.concatenate([self.cols[kept].ravel(), np.arange(self.unknowns)])
+            indptr = np.concatenate([np.arange(0, 16 * k, 8),
+                                     16 * k + np.arange(self.unknowns + 1)])
+            self.cached = (key, indices, indptr)
+        _, indices, indptr = self.cached
+        data = np.concatenate([both[kept].ravel(), self.prior])
+        return sp.csr_matrix((data, indices, indptr),
+                             shape=(indptr.size - 1, self.unknowns))
 
 
 def pair_medians(e: FloatArray, sizes: npt.NDArray[np.intp]) -> FloatArray:

@@ -86,8 +86,9 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
     detectors = Detectors()
     with opencv_threads(1), ThreadPoolExecutor(max(1, min(4, os.cpu_count() or 1))) as \
             workers:  # OpenCV frees the GIL. What the measuring needs is made beside the
-        # stages that do not use it: the wall's texture beside the features, the alignment
-        # without the prior beside the blending.
+        # stages that do not use it: the wall's texture beside the features (class Beside:
+        # the registration errors and the alignment without the prior beside the alignment,
+        # which runs on one thread, and the blending).
         if measuring and texture is None:
             texture = workers.submit(accuracy.truth_texture, survey.meta)
         images = prepare(survey, workers, detectors)
@@ -98,13 +99,13 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
         matcher = Matcher(survey.k, images.features, workers, detectors, size)
         pairs = register(matcher, prior, images.usable, per_image)
         clock.lap("registration")
-        aligned = align(matcher, prior, prior_std, pairs, images.usable, per_image)
+        beside = Beside(workers, survey, images.skipped, truth if measuring else None,
+                        compare_without_prior)
+        beside.registration_errors(pairs.found)  # those found so far, beside the alignment
+        aligned = align(matcher, prior, prior_std, pairs, images.usable, per_image,
+                        final=beside.without_prior)
         clock.lap("alignment")
-        alone = workers.submit(_without_prior, survey, images.skipped, prior, prior_std,
-                               list(pairs.found)) if (
-            measuring and compare_without_prior and pairs.found) else None
-        reg = workers.submit(accuracy.registration_errors, list(pairs.found), truth,
-                             survey.k) if measuring and truth is not None else None  # beside the blending
+        beside.registration_errors(pairs.found)  # the rest, beside the blending
         held = image_files.survey_bytes(len(survey.frames), survey.k.width, survey.k.height)
         blended = blend(survey, images, aligned.poses, size, mm_per_px, workers,
                         min(60_000_000, image_files.canvas_pixels(max_bytes, held)))
@@ -114,11 +115,47 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
                         aligned.poses, images.skipped, figures)
         if measuring:
             assert truth is not None
-            assert reg is not None
-            _measure(result, truth, reg.result(), prior, blended.count,
-                     alone.result() if alone is not None else None,
+            _measure(result, truth, beside.errors(), prior, blended.count, beside.alone(),
                      texture.result() if texture is not None and measuring else None)
     return result
+
+
+class Beside:
+    """What the measuring against the truth needs of the registration, made in the workers
+    while the main thread aligns and blends: each pair's registration error, and the poses
+    aligned without the prior (once the pairs are all found). Nothing if ``truth`` is None."""
+
+    def __init__(self, workers: ThreadPoolExecutor, survey: Survey, skipped: dict[int, str],
+                 truth: FloatArray | None, compare_without_prior: bool) -> None:
+        self.workers, self.survey, self.skipped = workers, survey, skipped
+        self.truth, self.compare = truth, compare_without_prior
+        self.prior = np.array([f.prior for f in survey.frames], dtype=float)
+        self.prior_std = np.array([f.prior_std for f in survey.frames], dtype=float)
+        self.done = 0  # pairs whose registration error is being worked out
+        self.reg: list[Future[FloatArray]] = []
+        self.poses: Future[FloatArray] | None = None
+
+    def registration_errors(self, found: list[registration.Pair]) -> None:
+        """Work out the registration error of the pairs ``found`` not yet given."""
+        if self.truth is not None:
+            self.reg.append(self.workers.submit(accuracy.registration_errors,
+                                                found[self.done:], self.truth, self.survey.k))
+            self.done = len(found)
+
+    def without_prior(self, found: list[registration.Pair]) -> None:
+        """Align the images without the prior on these pairs (:func:`stages.align`'s
+        ``final``)."""
+        if self.truth is not None and self.compare and found and self.poses is None:
+            self.poses = self.workers.submit(_without_prior, self.survey, self.skipped,
+                                             self.prior, self.prior_std, list(found))
+
+    def errors(self) -> FloatArray:
+        """The registration error of every pair given, in their order."""
+        return np.concatenate([r.result() for r in self.reg]) if self.reg else np.zeros(0)
+
+    def alone(self) -> FloatArray | None:
+        """The poses aligned without the prior (None: not compared)."""
+        return None if self.poses is None else self.poses.result()
 
 
 @contextmanager

@@ -14,6 +14,8 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+from mosaic import detail
+
 Image = npt.NDArray[np.uint8]
 FloatImage = npt.NDArray[np.float32]
 
@@ -86,10 +88,15 @@ def grey_u8(img: FloatImage) -> Image:
 def textureless(img: FloatImage) -> str | None:
     """Why a corrected image has nothing to register (None if it has): the detail between
     a few millimetres and a few centimetres on the wall (a band-pass of its grey: Gaussian
-    sigma 1.5 px minus sigma 8 px) is too faint — open water, the wall out of sight."""
+    sigma 1.5 px minus sigma 8 px) is too faint — open water, the wall out of sight. The
+    sigma-8 smoothing is skipped where a cheaper one proves the detail there
+    (:func:`mosaic.detail.surely_at_least`); the answer is the same."""
     import cv2
 
     grey = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img
-    band = cv2.GaussianBlur(grey, (0, 0), 1.5) - cv2.GaussianBlur(grey, (0, 0), 8.0)
+    fine = cv2.GaussianBlur(grey, (0, 0), 1.5)
+    if grey.dtype == np.float32 and detail.surely_at_least(grey, fine, FLAT):
+        return None
+    band = fine - detail.exact(grey)
     std = float(cv2.meanStdDev(band)[1][0, 0])
     return f"no texture (detail {std:.1f} grey levels)" if std < FLAT else None

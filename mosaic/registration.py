@@ -12,7 +12,7 @@ footprints (from the navigation data) overlap enough, a few per image from other
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -32,6 +32,18 @@ POINTS_KEPT = 16  # correspondences per pair passed to the global alignment
 class Features:
     points: FloatArray  # (n, 2) pixels
     descriptors: npt.NDArray[np.uint8] | None
+    words: npt.NDArray[np.uint64] | None = field(init=False, repr=False)  # for hamming()
+
+    def __post_init__(self) -> None:
+        self.words = descriptor_words(self.descriptors)
+
+
+def descriptor_words(descriptors: npt.NDArray[np.uint8] | None) -> npt.NDArray[np.uint64] | None:
+    """Binary descriptors (n, bytes) as 64-bit words, one row a word: (bytes / 8, n), what
+    :func:`hamming` takes (None if there are none, or their length is not whole words)."""
+    if descriptors is None or descriptors.ndim != 2 or descriptors.shape[1] % 8:
+        return None
+    return np.ascontiguousarray(np.ascontiguousarray(descriptors).view(np.uint64).T)
 
 
 @dataclass
@@ -53,7 +65,6 @@ class Detector:
         orb_create: Any = cv2.ORB_create  # type: ignore[attr-defined]
         self.orb = orb_create(nfeatures=n, scaleFactor=1.3, nlevels=2, edgeThreshold=15,
                               patchSize=15, fastThreshold=8)
-        self.matcher = cv2.BFMatcher(cv2.NORM_HAMMING)
 
     def detect(self, grey: Image) -> Features:
         kps, desc = self.orb.detectAndCompute(grey, None)
@@ -66,15 +77,14 @@ class Detector:
         j -> i (from the navigation data); matches far from it are dropped before RANSAC."""
         import cv2
 
-        if fi.descriptors is None or fj.descriptors is None or len(fi.points) < 8 \
-                or len(fj.points) < 8:
+        if fi.words is None or fj.words is None or len(fi.points) < 8 or len(fj.points) < 8:
             return "too few features"
-        knn = self.matcher.knnMatch(fj.descriptors, fi.descriptors, k=2)
-        good = [m[0] for m in knn if len(m) == 2 and m[0].distance < 0.8 * m[1].distance]
+        best, d0, d1 = two_nearest(hamming(fj.words, fi.words))
+        good = np.flatnonzero(d0 < 0.8 * d1)  # Lowe's ratio test
         if len(good) < MIN_INLIERS:
             return f"{len(good)} matches"
-        sj = fj.points[[m.queryIdx for m in good]]
-        si = fi.points[[m.trainIdx for m in good]]
+        sj = fj.points[good]
+        si = fi.points[best[good]]
         if guess is not None:
             q = sj @ guess[:, :2].T + guess[:, 2]
             near = np.hypot(*(q[:, :2] / q[:, 2:3] - si).T) < 0.25 * shape[1]
@@ -93,6 +103,41 @@ class Detector:
         pi, pj = si[inl], sj[inl]
         keep = spread(pj, POINTS_KEPT, shape)
         return Pair(i, j, h, pi[keep], pj[keep], int(inl.sum()), consecutive)
+
+
+def hamming(query: npt.NDArray[np.uint64],
+            train: npt.NDArray[np.uint64]) -> npt.NDArray[np.uint16]:
+    """The Hamming distance of every query descriptor (rows) to every train descriptor
+    (columns), each given as :func:`descriptor_words`: the distances OpenCV's brute-force
+    matcher finds, in 0.35 ms for 300 x 300 ORB descriptors where its ``knnMatch`` took 0.66
+    ms (and the Python objects of its answer 0.07 more)."""
+    x = np.empty((query.shape[1], train.shape[1]), np.uint64)
+    sums = []  # the bits differing in each two words: at most 128, a byte
+    for w in range(0, query.shape[0], 2):
+        np.bitwise_xor(query[w][:, None], train[w][None, :], out=x)
+        two = np.bitwise_count(x)
+        if w + 1 < query.shape[0]:
+            np.bitwise_xor(query[w + 1][:, None], train[w + 1][None, :], out=x)
+            two += np.bitwise_count(x)
+        sums.append(two)
+    total = np.add(sums[0], sums[1], dtype=np.uint16) if len(sums) > 1 else \
+        sums[0].astype(np.uint16)
+    for more in sums[2:]:
+        total += more
+    return total
+
+
+def two_nearest(distances: npt.NDArray[np.uint16]) -> tuple[npt.NDArray[np.intp],
+                                                          npt.NDArray[np.uint16],
+                                                          npt.NDArray[np.uint16]]:
+    """For each row of ``distances`` (changed here): the column nearest (the first of equals),
+    its distance and the second smallest distance (equal to the first on a tie), as
+    ``knnMatch(k=2)`` gives them."""
+    rows = np.arange(distances.shape[0])
+    best = distances.argmin(axis=1)
+    first = distances[rows, best]
+    distances[rows, best] = np.iinfo(distances.dtype).max
+    return best, first, distances.min(axis=1)
 
 
 def verify(h: FloatArray, inliers: int, shape: tuple[int, int]) -> str | None:
@@ -155,22 +200,23 @@ def candidates(centres: FloatArray, footprint: tuple[float, float], usable: list
         return []
     tree = cKDTree(centres[idx] / [fw, fh])
     r = 1.0 - min_overlap  # (1 - |dy|)(1 - |dz|) >= m implies |(dy, dz)| <= 1 - m
-    out = []
-    for a, b in tree.query_pairs(r):
-        i, j = sorted((int(idx[a]), int(idx[b])))
-        if j - i < gap:
-            continue
-        ov = max(0.0, 1 - abs(centres[i, 0] - centres[j, 0]) / fw) * \
-            max(0.0, 1 - abs(centres[i, 1] - centres[j, 1]) / fh)
-        if ov >= min_overlap:
-            out.append((ov, i, j))
-    out.sort(reverse=True)
+    near = tree.query_pairs(r, output_type="ndarray")  # index pairs a < b, so idx[a] < idx[b]
+    i, j = idx[near[:, 0]], idx[near[:, 1]]
+    far = j - i >= gap
+    i, j = i[far], j[far]
+    dy = 1 - np.abs(centres[i, 0] - centres[j, 0]) / fw
+    dz = 1 - np.abs(centres[i, 1] - centres[j, 1]) / fh
+    ov = np.where(dy > 0.0, dy, 0.0) * np.where(dz > 0.0, dz, 0.0)  # max(0.0, ...) each
+    enough = ov >= min_overlap
+    i, j, ov = i[enough], j[enough], ov[enough]
+    order = np.lexsort((j, i, ov))[::-1]  # the largest overlap first (then i, j: the largest)
+    out = zip(i[order].tolist(), j[order].tolist())
     taken: dict[int, list[int]] = {}
     pairs = []
-    for _, i, j in out:
-        mine = taken.setdefault(i, [])
-        if len(mine) >= per_image or any(abs(j - k) < gap for k in mine):
+    for a, b in out:
+        mine = taken.setdefault(a, [])
+        if len(mine) >= per_image or any(abs(b - k) < gap for k in mine):
             continue
-        mine.append(j)
-        pairs.append((i, j))
+        mine.append(b)
+        pairs.append((a, b))
     return sorted(pairs)

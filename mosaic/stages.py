@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import threading
 from collections import deque
+from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
@@ -118,7 +119,8 @@ class Matcher:
 
     def match(self, jobs: list[Job], poses: FloatArray) -> list[registration.Pair | str]:
         """Each pair registered, or why it was not (in the order of ``jobs``)."""
-        hw = [homography(p, self.k) for p in poses]
+        hw = {i: homography(poses[i], self.k) for i in sorted({i for a, b, _ in jobs
+                                                                for i in (a, b)})}
         shape = (self.k.height, self.k.width)
 
         def one(job: Job) -> registration.Pair | str:
@@ -178,11 +180,24 @@ class Aligned:
 
 
 def align(matcher: Matcher, prior: FloatArray, prior_std: FloatArray, pairs: Pairs,
-          usable: list[bool], per_image: int, max_rounds: int = 3) -> Aligned:
+          usable: list[bool], per_image: int, max_rounds: int = 3,
+          final: Callable[[list[registration.Pair]], None] | None = None) -> Aligned:
     """Align all images with the navigation data as a prior; then look for overlaps again
     from the aligned poses, register the new ones (added to ``pairs``) and align again, until
-    no new pair (at most ``max_rounds`` alignments)."""
+    no new pair (at most ``max_rounds`` alignments). ``final`` is called once with the pairs
+    registered as soon as no more can come (before the last alignment when it is the
+    ``max_rounds``-th), so that what needs them all may start beside that alignment."""
     k = matcher.k
+    told = False
+
+    def tell() -> None:
+        nonlocal told
+        if final is not None and not told:
+            final(pairs.found)
+        told = True
+
+    if max_rounds <= 1:
+        tell()
     al = alignment.align(prior, prior_std, pairs.found, k, use_prior=True)
     poses = al.poses
     seen = {(a, b) for a, b, _ in pairs.tried}
@@ -198,9 +213,12 @@ def align(matcher: Matcher, prior: FloatArray, prior_std: FloatArray, pairs: Pai
         if not found:
             break
         pairs.found += found
+        if rounds + 1 == max_rounds:
+            tell()
         al = alignment.align(prior, prior_std, pairs.found, k, use_prior=True, x0=poses)
         poses = al.poses
         rounds += 1
+    tell()
     return Aligned(poses, al, rounds)
 
 
