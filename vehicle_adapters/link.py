@@ -5,7 +5,9 @@ The clock. The player runs on the vehicle's clock: the last vehicle time heard (
 at monotonic ``base_wall``), run on at ``speed`` times wall time for at most
 ``max_extrapolation`` wall seconds, so that a stalled vehicle does not run the player's clock
 far ahead. After ``Link.lost`` it runs on wall time x the last speed, without bound, so that
-the player's timers and time limits still end the run. ``now()`` never goes back.
+the player's timers and time limits still end the run. ``now()`` never goes back, and the
+events an adapter makes itself are stamped with the same reading (``now_locked``), so that
+none is delivered before the time it says it was raised.
 
 The inbox. Adapters put events in from their own threads (:meth:`deliver`); ``receive(until)``
 takes them out, waiting for the first at most until the clock reads ``until`` and never longer
@@ -69,10 +71,18 @@ class RemoteVehicle:
         if speed is not None:
             self.speed = speed
 
+    def now_locked(self) -> float:
+        """The vehicle's clock now, as followed, never going back (lock held): what
+        :meth:`now` answers, and what an adapter stamps the events it makes itself with. The
+        followed clock alone can go back (an extrapolation the next reading of the vehicle's
+        clock undercuts); an event stamped with it could then be delivered at an earlier
+        mission time than it says it was raised, which ``mcl replay`` rightly refuses."""
+        self._last_now = max(self._last_now, self.vehicle_time_locked())
+        return self._last_now
+
     def now(self) -> float:
         with self.lock:
-            self._last_now = max(self._last_now, self.vehicle_time_locked())
-            return self._last_now
+            return self.now_locked()
 
     # -- events -----------------------------------------------------------------------------------
     def next_seq_locked(self) -> int:
@@ -91,7 +101,7 @@ class RemoteVehicle:
         with self.lock:
             if self._lost:
                 return
-            t = self.vehicle_time_locked()
+            t = self.now_locked()
             event = EventMessage(self.next_seq_locked(), t, "Link", "lost", {"reason": reason})
             # The event is in the inbox before ``lost`` reads true (``lost`` takes no lock):
             # whoever sees ``lost`` finds Link.lost waiting in receive().

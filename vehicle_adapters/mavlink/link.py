@@ -248,7 +248,7 @@ class MavlinkVehicle(RemoteVehicle):
 
     def _say_locked(self, events: list[Event]) -> None:
         for behaviour, name, data in events:
-            self.inbox.put(EventMessage(self.next_seq_locked(), self.vehicle_time_locked(),
+            self.inbox.put(EventMessage(self.next_seq_locked(), self.now_locked(),
                                         behaviour, name, data))
 
     # -- the Vehicle protocol ---------------------------------------------------------------------
