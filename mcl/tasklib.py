@@ -120,13 +120,19 @@ def load_sources(sources: list[Source]) -> Library:
     that builds them."""
     if not sources or not all(s.name.startswith(SHIPPED_PREFIX) for s in sources):
         return build_library(sources)
+    name = "library-" + "+".join(s.name.removeprefix(SHIPPED_PREFIX).removesuffix(".tasks")
+                                 for s in sources)
+    return cached_library(name, sources)
 
+
+def cached_library(name: str, sources: list[Source]) -> Library:
+    """The library of ``sources`` (:func:`build_library`), kept in the cache's entry ``name``
+    under the key of their names and texts, the grammar's, lark's version and the code that
+    builds it: parsed and checked once for each."""
     def parts() -> list[str | bytes]:
         return [*(f"{s.name}\0{s.text}" for s in sources), grammars.grammar_text("tasks.lark"),
                 grammars.lark_version(), cache.code_digest(BUILDER_CODE)]
 
-    name = "library-" + "+".join(s.name.removeprefix(SHIPPED_PREFIX).removesuffix(".tasks")
-                                 for s in sources)
     return cache.cached(name, parts, lambda: build_library(sources))
 
 

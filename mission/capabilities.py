@@ -14,25 +14,18 @@ from collections.abc import Collection
 
 from aal.messages import Declaration
 from diagnostics import Diagnostic, MclError, Source
-from mcl import cache, grammars, tasklib
+from mcl import tasklib
 from mcl.api import Compiled
 
 
 def declared_behaviours(declaration: Declaration) -> tasklib.Library:
     """The vehicle's declaration, parsed by the task library's own parser; kept in the cache
-    (mcl/cache.py) under the key of its text, the grammar's, lark's version and the code that
-    builds it, as the shipped libraries are: a run checks it before connecting and again
-    after, and parsing it (with lark's import) took about 0.1 s of a dam run's start."""
-    sources = [Source(declaration.source, declaration.text)]
-
-    def parts() -> list[str | bytes]:
-        return [f"{declaration.source}\0{declaration.text}", grammars.grammar_text("tasks.lark"),
-                grammars.lark_version(), cache.code_digest(tasklib.BUILDER_CODE)]
-
-    # one entry for each text (each kind of vehicle declares its own), the older under
-    # another key removed as the cache does
+    as the shipped libraries are (:func:`mcl.tasklib.cached_library`), one entry for each
+    declaration's text: a run checks it before connecting and again after, and parsing it
+    (with lark's import) took about 0.1 s of a dam run's start."""
     text = hashlib.sha256(declaration.text.encode("utf-8")).hexdigest()[:16]
-    return cache.cached(f"declaration-{text}", parts, lambda: tasklib.build_library(sources))
+    return tasklib.cached_library(f"declaration-{text}",
+                                  [Source(declaration.source, declaration.text)])
 
 
 def check_capabilities(compiled: Compiled, declaration: Declaration,

@@ -99,8 +99,8 @@ def build(path: str | Path, mm_per_px: float = blending.MM_PER_PX, measure: bool
         matcher = Matcher(survey.k, images.features, workers, detectors, size)
         pairs = register(matcher, prior, images.usable, per_image)
         clock.lap("registration")
-        beside = Beside(workers, survey, images.skipped, truth if measuring else None,
-                        compare_without_prior)
+        beside = Beside(workers, survey, images.skipped, prior, prior_std,
+                        truth if measuring else None, compare_without_prior)
         beside.registration_errors(pairs.found)  # those found so far, beside the alignment
         aligned = align(matcher, prior, prior_std, pairs, images.usable, per_image,
                         final=beside.without_prior)
@@ -126,11 +126,11 @@ class Beside:
     aligned without the prior (once the pairs are all found). Nothing if ``truth`` is None."""
 
     def __init__(self, workers: ThreadPoolExecutor, survey: Survey, skipped: dict[int, str],
-                 truth: FloatArray | None, compare_without_prior: bool) -> None:
+                 prior: FloatArray, prior_std: FloatArray, truth: FloatArray | None,
+                 compare_without_prior: bool) -> None:
         self.workers, self.survey, self.skipped = workers, survey, skipped
+        self.prior, self.prior_std = prior, prior_std  # the navigation data at the images
         self.truth, self.compare = truth, compare_without_prior
-        self.prior = np.array([f.prior for f in survey.frames], dtype=float)
-        self.prior_std = np.array([f.prior_std for f in survey.frames], dtype=float)
         self.done = 0  # pairs whose registration error is being worked out
         self.reg: list[Future[FloatArray]] = []
         self.poses: Future[FloatArray] | None = None

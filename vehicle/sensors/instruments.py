@@ -425,7 +425,7 @@ class Sensors:
         """Every reading due at t (several from one sensor if the caller stepped past them)."""
         out: list[Reading] = []
         for sensor, g in zip(self.all, self._rngs):
-            if t + 1e-9 < sensor.schedule.next:  # not due: its sample would say None
+            if sensor.schedule.waiting(t):  # not due: its sample would say None
                 continue
             for _ in range(1000):
                 reading = sensor.sample(t, truth, g)

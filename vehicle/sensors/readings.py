@@ -107,9 +107,13 @@ class Schedule:
     def next_time(self) -> float:
         return self.next
 
+    def waiting(self, t: float) -> bool:
+        """True if no reading is due at t yet (:meth:`due` would say False)."""
+        return t + 1e-9 < self.next
+
     def due(self, t: float) -> bool:
         """True (and move on to the next due time) if a reading is due at t."""
-        if t + 1e-9 >= self.next:
+        if not self.waiting(t):
             self.count += 1
             self.next = self.t0 + self.count / self.rate
             return True
