@@ -107,7 +107,9 @@ class LiveView:
         later than the last they were told: a viewer stamps what it receives with the server's
         time (Lichtblick does, with its own clock otherwise), so its clock, Plot and State
         Transitions run on mission time as with the run's file. The server's time never goes
-        back (Lichtblick drops what it holds when it does)."""
+        back (Lichtblick drops what it holds when it does). foxglove-sdk sends the time and the
+        messages to a client from two queues of its own (control and data), so a message may
+        reach it just before the time told before it, never without it."""
         for m in messages:
             channel = self.channels.get(m.topic)
             if channel is None:

@@ -168,7 +168,7 @@ def test_the_poses_frame_is_served_live_as_in_a_file(live: LiveView) -> None:
 def test_the_server_s_time_is_mission_time(live: LiveView) -> None:
     """A viewer stamps what it receives with the server's time (Lichtblick uses its own wall
     clock otherwise, so that its Plot and State Transitions ran on the time of day while the
-    Log showed mission time): the server says it publishes time, sends the mission time before
+    Log showed mission time): the server says it publishes time, tells the mission time of
     each message that is later, and never goes back."""
     ws = WebSocket("127.0.0.1", live.port, PROTOCOL)
     opcode, payload = ws.receive()
@@ -199,10 +199,11 @@ def test_the_server_s_time_is_mission_time(live: LiveView) -> None:
         pytest.fail("no status received after subscribing")
     times = [ns for kind, ns in frames if kind == "time"]
     assert times == sorted(set(times)) and times[0] == 10_000_000_000
-    for i, (kind, ns) in enumerate(frames):  # the time goes to the socket at once, a message
-        if kind == "status":                 # through the client's queue: a loaded machine
-            told = [n for k, n in frames[:i] if k == "time"]  # may see later times first,
-            assert told and told[-1] >= ns and ns in told, (i, frames)  # never one missing
+    # foxglove-sdk sends the time and the messages to a client from two queues (control and
+    # data: its Poller), so a status may come just before the time told before it (seen in CI)
+    for kind, ns in frames:
+        if kind == "status":
+            assert ns in times, frames  # never one missing
     ws.close()
 
 
