@@ -25,6 +25,7 @@ import threading
 from collections.abc import Callable
 from typing import cast
 
+from app.blas import one_blas_thread
 from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
 from app.version import VersionAction
 from app import arguments
@@ -67,6 +68,7 @@ def main(argv: list[str] | None = None) -> int:
     """The ``mcl`` console script (``argv`` None: the process's own arguments) or a call
     with its arguments; the exit status. A run from the process's arguments then ends the
     process at once (:func:`end_at_once`)."""
+    one_blas_thread()  # before numpy loads (app/blas.py)
     args = sys.argv[1:] if argv is None else list(argv)
     status = _command(args)
     if argv is None and args[:1] == ["run"]:

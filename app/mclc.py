@@ -16,6 +16,7 @@ import sys
 from typing import NoReturn
 
 from app import kept_reports
+from app.blas import one_blas_thread
 from app.arguments import memory_size
 from app.streams import lost_line, open_standard_streams, stdout_closed, watched_stdout
 from app.version import VersionAction
@@ -103,19 +104,10 @@ def _positive(text: str) -> int:
     return value
 
 
-def one_blas_thread() -> None:
-    """Ask OpenBLAS for one thread, unless the user chose a number or numpy is loaded already.
-    mclc does no linear algebra, and the pool OpenBLAS starts when numpy loads (numpy comes
-    later, with the explicit route) would spin about 50 ms of CPU on every core for nothing:
-    a quarter of what verifying the dam mission costs."""
-    if "numpy" not in sys.modules:
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
-
 def main(argv: list[str] | None = None, prog: str = "mclc") -> int:
     """The command; a closed standard output ends it quietly with the status so far, one
     that cannot be written (a full disk) with one line and exit 2."""
-    one_blas_thread()
+    one_blas_thread()  # mclc does no linear algebra (app/blas.py)
     open_standard_streams()
     worst = [Exit.OK]
     try:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from app.mclc import one_blas_thread
+from app.blas import one_blas_thread
 from tests.support import MISSIONS, REPO, budget, subprocess_env
 
 DAM = str(MISSIONS / "dam_inspection.mcl")
