@@ -10,7 +10,9 @@ prints the median of ``--runs`` runs of:
 * the peer in the same run: the same mission with ``--no-images`` (the simulation alone, the
   floor of any run with images), and the ratio;
 * with ``--compare TREE`` (a checkout of another commit, e.g. ``git archive REV | tar -x -C
-  TREE``), that tree's runs too, interleaved with these (the machine's load falls on both);
+  TREE``), that tree's runs too, interleaved with these (the machine's load falls on both),
+  and the median of the differences round by round (this machine's speed drifts by 10 % and
+  more within minutes: a round's two runs see the same moment);
 * the mosaic's figures against ground truth of every run, which must not change;
 * the machine: its cores and load average before and after.
 
@@ -100,6 +102,16 @@ def main() -> int:
             if images:
                 note = f"  target <= {TARGET_S:g} s: {'met' if wall <= TARGET_S else 'SHORT'}"
             print(f"{label:<34} {wall:8.1f} {cpu:8.1f} {wall / sim:10.2f}x{note}")
+    if len(trees) > 1:  # each round against the compared tree's of the same round
+        for images in (True, False):
+            pairs = list(zip(runs[("this tree", images)], runs[("compared", images)]))
+            wall = statistics.median(float(a["wall"]) - float(b["wall"])  # type: ignore[arg-type]
+                                     for a, b in pairs)
+            cpu = statistics.median(float(a["cpu"]) - float(b["cpu"])  # type: ignore[arg-type]
+                                    for a, b in pairs)
+            print(f"{'this tree - compared, ' + ('images' if images else 'alone'):<34} "
+                  f"{wall:+8.1f} {cpu:+8.1f}  (median of the rounds' differences: a "
+                  "machine whose speed drifts moves both of a round)")
     figures = {json.dumps(r["figures"], sort_keys=True) for (_, images), rs in runs.items()
                if images for r in rs}
     print(f"mosaic figures: {'the same in every run' if len(figures) == 1 else 'DIFFER'}: "
