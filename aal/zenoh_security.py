@@ -337,7 +337,7 @@ def access_control(security: Security) -> dict[str, Any]:
         _rule("player answers status queries", "ingress", ["declare_queryable", "reply"],
               STATUS_KEYS),
         _rule("player's token", "ingress", ["liveliness_token"], PLAYER_TOKEN_KEYS),
-        _rule("player asks and tells its modem", "ingress", ["put", "query"], MODEM_KEYS),
+        _rule("player asks and tells its modem", "ingress", ["query"], MODEM_KEYS),
         *([_rule("player puts on its channels", "ingress", ["put"], list(security.channels))]
           if security.channels else []),
         _rule("readers subscribe", "ingress",

@@ -173,7 +173,8 @@ class Member:
             self.began = self.inner.now()
         for at, msg in self.carrier.deliveries(self.name, self.inner.now(), self.began):
             data = {**msg.data, "sent": msg.sent}
-            if self.inner.session is not None:  # its vehicle's modem hears it (the UUV's fix)
+            if self.inner.session is not None and not self.inner.lost:
+                # its vehicle's modem hears it (the UUV's fix) before the player acts on it
                 modem.heard(self.inner.session, self.name, msg.channel, msg.message, data, at)
             events.append(self.renumbered(EventMessage(0, at, msg.channel, msg.message, data)))
         return events

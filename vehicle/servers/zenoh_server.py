@@ -33,9 +33,9 @@ enabled is left on. A restarted vehicle process starts with every behaviour off.
 
 The modem (a fleet's vehicle, docs/FLEET_ZENOH.md): a stack with a side of a fleet's channels
 (``payload``, ``heard``: paper 003's ASV and UUV) answers the query ``mcl/<v>/modem/payload``
-(parameters ``channel``, ``message``, ``t``) with what a message it sends says, and takes
-``mcl/<v>/modem/heard`` (JSON ``{"channel", "message", "data", "t"}``: a message its player was
-delivered), both applied between ticks. ``vehicle/servers/mcm_server.py`` serves the two
+(parameters ``channel``, ``message``, ``t``) with what a message it sends says, and the query
+``mcl/<v>/modem/heard`` (payload JSON ``{"channel", "message", "data", "t"}``: a message its
+player was delivered) once its stack has heard it, both applied between ticks. ``vehicle/servers/mcm_server.py`` serves the two
 vehicles of one simulated world this way, on one clock.
 """
 
@@ -79,7 +79,8 @@ class NewRun:
 @dataclass
 class ModemCall:
     """A modem's word asked or told by a player, applied in the loop between ticks: a
-    payload asked (``data`` None; answered in ``answer``, ``done`` set) or a message heard."""
+    payload asked (``data`` None; answered in ``answer``) or a message heard; ``done`` set
+    once applied (the player waits for it)."""
 
     channel: str
     message: str
@@ -92,7 +93,7 @@ class ModemCall:
 CLOCK_PERIOD = 0.02  # wall s between clock messages
 TELEMETRY_PERIOD = 0.2  # wall s between telemetry messages (5 Hz)
 MAX_SLEEP = 0.01  # wall s: the loop looks at stop, actions and the player at least this often
-MODEM_WAIT = 2.0  # wall s: the longest a payload query waits for the loop
+MODEM_WAIT = 2.0  # wall s: the longest a modem's query (payload, heard) waits for the loop
 
 
 class VehicleServer:
@@ -235,17 +236,21 @@ class VehicleServer:
         if call.done.wait(MODEM_WAIT):
             query.reply(self.keys["modem_payload"], json.dumps(call.answer or {}))
 
-    def _on_heard(self, sample: zenoh.Sample) -> None:
-        """A player says a message was delivered to this vehicle: its stack hears it."""
+    def _on_heard(self, query: zenoh.Query) -> None:
+        """A player says a message was delivered to this vehicle: its stack hears it, then the
+        player is answered (it acts on the message only after: vehicle_adapters/zenoh_modem.py)."""
         try:
-            d = json.loads(payload_text(sample))
+            d = json.loads(query.payload.to_bytes() if query.payload is not None else b"")
             call = ModemCall(str(d["channel"]), str(d["message"]), float(d["t"]),
-                             data=dict(d["data"]))
+                             data=dict(d["data"]), done=threading.Event())
         except (ValueError, KeyError, TypeError):
             with self._lock:
                 self.dropped += 1
-            return
+            return  # not a message this vehicle can read: no answer
         self._actions.put(call)
+        assert call.done is not None
+        if call.done.wait(MODEM_WAIT):
+            query.reply(self.keys["modem_heard"], "{}")
 
     # -- the loop -------------------------------------------------------------------------------
     def run(self) -> None:
@@ -291,7 +296,7 @@ class VehicleServer:
         ]
         if self.modem:
             entities += [session.declare_queryable(k["modem_payload"], self._on_payload),
-                         session.declare_subscriber(k["modem_heard"], self._on_heard)]
+                         session.declare_queryable(k["modem_heard"], self._on_heard)]
         entities.append(session.liveliness().declare_token(k["alive_vehicle"]))
         return pub, entities
 
@@ -369,6 +374,8 @@ class VehicleServer:
                 call.done.set()
         else:
             self.stack.heard(call.channel, call.message, call.data, call.t)
+            if call.done is not None:
+                call.done.set()
 
     def check_player(self) -> None:
         """Take the safe action once the player has been gone too long."""

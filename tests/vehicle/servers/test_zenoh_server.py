@@ -22,7 +22,11 @@ zenoh = pytest.importorskip("zenoh")
 from aal.messages import ActionMessage  # noqa: E402
 from aal.zenoh import keys, zenoh_config  # noqa: E402
 from tests.support import TOLERANT_LEASE_MS, budget, free_endpoint  # noqa: E402
+from vehicle.control.mcm_stack import mcm_world  # noqa: E402
+from vehicle.control.uuv_stack import UuvStack  # noqa: E402
 from vehicle.servers.zenoh_server import VehicleServer  # noqa: E402
+from vehicle_adapters import zenoh_modem as modem  # noqa: E402
+from vehicle_adapters.zenoh_link import ZenohVehicle  # noqa: E402
 
 
 def wait_for(predicate: Any, what: str, timeout: float = budget(6)) -> None:
@@ -88,3 +92,71 @@ def test_a_stale_action_still_says_why() -> None:
     reason = vehicle.take(enable_camera(5, "another-run"))
     assert reason is not None and "stale" in reason and "another-run" in reason
     assert (vehicle.dropped, vehicle.stale) == (0, 1)
+
+
+class RecordingUuv(UuvStack):
+    """Paper 003's UUV, recording in what order its server applied the modem's messages
+    and the actions."""
+
+    def __init__(self) -> None:
+        super().__init__(mcm_world(1), 1)
+        self.applied: list[tuple[str, int]] = []
+
+    def heard(self, channel: str, message: str, data: dict[str, Any], t: float) -> None:
+        self.applied.append(("heard", int(data["i"])))
+        super().heard(channel, message, data, t)
+
+    def on_action(self, action: ActionMessage, now: float) -> None:
+        self.applied.append(("action", action.seq))
+        super().on_action(action, now)
+
+
+def test_the_vehicle_hears_a_delivered_message_before_the_action_taken_on_it() -> None:
+    """A player delivered a fix tells its vehicle's modem (so that the navigator fuses it), then
+    acts on the fix: the vehicle must hear the fix before it applies that action, or the
+    behaviour enabled reads an estimate without the fix (missions/mcm.mcl's FollowLine took the
+    mine for where the UUV was, near at once, and the UUV ascended). Over a real loopback link,
+    with the player's own adapter, back to back; an action sent before a message may still be
+    applied after it (nothing on the vehicle waits for it)."""
+    stack = RecordingUuv()
+    vehicle = VehicleServer(free_endpoint(), "uuv", speed=1.0, player_timeout=30.0,
+                            lease_ms=TOLERANT_LEASE_MS, stack=stack, safe="Ascend", dt=0.1)
+    thread = threading.Thread(target=vehicle.run, daemon=True)
+    thread.start()
+    pairs = 100
+    try:
+        assert vehicle.ready.wait(budget(10)), "the vehicle server did not start"
+        with ZenohVehicle(vehicle.endpoint, "uuv", connect_timeout=budget(10),
+                          lease_ms=TOLERANT_LEASE_MS) as player:
+            assert player.session is not None and not player.lost
+            for i in range(pairs):
+                assert modem.heard(player.session, "uuv", "guide", "fix", {"i": i}, 0.0,
+                                   timeout=budget(2)), f"message {i} not acknowledged"
+                kind = "enable" if i % 2 == 0 else "disable"
+                player.send(ActionMessage(i + 1, 0.0, "m", f"FollowLine@{i}", kind,
+                                          "KeepDepth", {}))
+            wait_for(lambda: len(stack.applied) >= 2 * pairs, "every message applied")
+    finally:
+        vehicle.stop.set()
+        thread.join(budget(10))
+    assert sorted(stack.applied) == sorted(
+        m for i in range(pairs) for m in (("heard", i), ("action", i + 1)))
+    at = {m: n for n, m in enumerate(stack.applied)}
+    overtaken = [i for i in range(pairs) if at[("action", i + 1)] < at[("heard", i)]]
+    assert not overtaken, f"{len(overtaken)} of {pairs} actions applied before the message " \
+                          f"they were taken on (the first after message {overtaken[0]})"
+
+
+def test_a_vehicle_without_a_modem_does_not_answer_what_was_heard(
+        server: VehicleServer) -> None:
+    """The Ictineu has no modem: told of a message, it does not answer, and the player goes
+    on (the query ends with no reply rather than waiting for one)."""
+    assert not server.modem
+    session = zenoh.open(zenoh_config(server.endpoint, "client", connect=True))
+    try:
+        assert modem.heard(session, server.name, "guide", "fix", {"i": 0}, 0.0,
+                           timeout=budget(2)) is False
+        assert modem.payload(session, server.name, "guide", "fix", 0.0,
+                             timeout=budget(2)) == {}
+    finally:
+        session.close()
