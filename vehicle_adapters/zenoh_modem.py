@@ -4,7 +4,8 @@ A fleet's vehicle may have a side of the fleet's channels (paper 003's ASV says 
 ``fix`` carries; the UUV's navigator fuses every fix it hears): :func:`payload` asks the
 vehicle what a message it sends says (``mcl/<v>/modem/payload``; ``{}`` from a vehicle without
 a modem, which does not answer), :func:`heard` tells it a message its player was delivered and
-waits for its word (``mcl/<v>/modem/heard``, a query too: see there why). The vehicle's side: vehicle/servers/zenoh_server.py.
+waits for its word (``mcl/<v>/modem/heard``, a query too: see there why). The vehicle's side:
+vehicle/servers/zenoh_server.py.
 """
 
 from __future__ import annotations

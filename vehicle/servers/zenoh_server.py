@@ -35,8 +35,9 @@ The modem (a fleet's vehicle, docs/FLEET_ZENOH.md): a stack with a side of a fle
 (``payload``, ``heard``: paper 003's ASV and UUV) answers the query ``mcl/<v>/modem/payload``
 (parameters ``channel``, ``message``, ``t``) with what a message it sends says, and the query
 ``mcl/<v>/modem/heard`` (payload JSON ``{"channel", "message", "data", "t"}``: a message its
-player was delivered) once its stack has heard it, both applied between ticks. ``vehicle/servers/mcm_server.py`` serves the two
-vehicles of one simulated world this way, on one clock.
+player was delivered) once its stack has heard it, both applied between ticks.
+``vehicle/servers/mcm_server.py`` serves the two vehicles of one simulated world this way, on
+one clock.
 """
 
 from __future__ import annotations
