@@ -20,11 +20,11 @@ from aal.zenoh import keys, payload_text
 
 log = logging.getLogger(__name__)
 
-PAYLOAD_TIMEOUT = 2.0  # wall s: the longest a Send waits for its vehicle's word
+MODEM_TIMEOUT = 2.0  # wall s: the longest a Send, or a delivery, waits for its vehicle's word
 
 
 def payload(session: zenoh.Session, vehicle: str, channel: str, message: str, t: float,
-            timeout: float = PAYLOAD_TIMEOUT) -> dict[str, Any]:
+            timeout: float = MODEM_TIMEOUT) -> dict[str, Any]:
     """What ``vehicle`` says a message it sends at ``t`` (its clock) carries; ``{}`` when it
     has no modem, does not answer in ``timeout`` wall seconds, or answers what is not a
     JSON object."""
@@ -44,7 +44,7 @@ def payload(session: zenoh.Session, vehicle: str, channel: str, message: str, t:
 
 
 def heard(session: zenoh.Session, vehicle: str, channel: str, message: str,
-          data: dict[str, Any], t: float, timeout: float = PAYLOAD_TIMEOUT) -> bool:
+          data: dict[str, Any], t: float, timeout: float = MODEM_TIMEOUT) -> bool:
     """Tell ``vehicle`` that its player was delivered ``message`` on ``channel`` at ``t``
     (its clock), with the message's ``data``, and wait (at most ``timeout`` wall seconds) for
     its word that its stack has heard it: True then; False from a vehicle without a modem

@@ -48,7 +48,7 @@ import queue
 import threading
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import zenoh
@@ -88,7 +88,7 @@ class ModemCall:
     t: float
     data: dict[str, Any] | None = None
     answer: dict[str, Any] | None = None
-    done: threading.Event | None = None
+    done: threading.Event = field(default_factory=threading.Event)
 
 
 CLOCK_PERIOD = 0.02  # wall s between clock messages
@@ -228,13 +228,10 @@ class VehicleServer:
         """A player asks what a message it sends says (its Send): the stack's payload."""
         try:
             p = query.parameters
-            call = ModemCall(str(p["channel"]), str(p["message"]), float(str(p["t"])),
-                             done=threading.Event())
+            call = ModemCall(str(p["channel"]), str(p["message"]), float(str(p["t"])))
         except (KeyError, ValueError, TypeError):
             return  # not a question this vehicle can read: no answer
-        self._actions.put(call)
-        assert call.done is not None
-        if call.done.wait(MODEM_WAIT):
+        if self._applied(call):
             query.reply(self.keys["modem_payload"], json.dumps(call.answer or {}))
 
     def _on_heard(self, query: zenoh.Query) -> None:
@@ -243,15 +240,19 @@ class VehicleServer:
         try:
             d = json.loads(query.payload.to_bytes() if query.payload is not None else b"")
             call = ModemCall(str(d["channel"]), str(d["message"]), float(d["t"]),
-                             data=dict(d["data"]), done=threading.Event())
+                             data=dict(d["data"]))
         except (ValueError, KeyError, TypeError):
             with self._lock:
                 self.dropped += 1
             return  # not a message this vehicle can read: no answer
-        self._actions.put(call)
-        assert call.done is not None
-        if call.done.wait(MODEM_WAIT):
+        if self._applied(call):
             query.reply(self.keys["modem_heard"], "{}")
+
+    def _applied(self, call: ModemCall) -> bool:
+        """Queue a modem's call for the loop and wait (at most ``MODEM_WAIT``) until it is
+        applied: whether it was."""
+        self._actions.put(call)
+        return call.done.wait(MODEM_WAIT)
 
     # -- the loop -------------------------------------------------------------------------------
     def run(self) -> None:
@@ -371,12 +372,9 @@ class VehicleServer:
             where = getattr(self.stack, "position", lambda: None)()
             call.answer = {**({"position": list(where)} if where is not None else {}),
                            **answer}
-            if call.done is not None:
-                call.done.set()
         else:
             self.stack.heard(call.channel, call.message, call.data, call.t)
-            if call.done is not None:
-                call.done.set()
+        call.done.set()
 
     def check_player(self) -> None:
         """Take the safe action once the player has been gone too long."""
